@@ -1,0 +1,1 @@
+//! hil-sim: runs the firmware logic on the host against real captures and emulated sensors.

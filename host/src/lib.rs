@@ -1,0 +1,1 @@
+//! Host software for the robot computer.
