@@ -31,6 +31,12 @@ impl Encoder {
         self.next_seq
     }
 
+    /// Advances the sequence number past `count` frames that were dropped before encoding, so
+    /// that the receiver sees the gap and counts them as lost.
+    pub fn skip(&mut self, count: u16) {
+        self.next_seq = self.next_seq.wrapping_add(count);
+    }
+
     /// Encodes `message` into `out` as one wire frame (COBS, then a 0x00 delimiter) and
     /// returns its bytes. The sequence number advances even if the caller then drops the
     /// frame, so the receiver counts it as lost. An `out` of [`MAX_WIRE_LEN`] bytes always

@@ -60,7 +60,9 @@ pub struct StatusMsg {
     pub laser: LinkCounters,
     /// GPS link counters.
     pub gps: LinkCounters,
-    /// Host link counters (frames received from the host; frames dropped towards it).
+    /// Host link counters: `bytes` and `telegrams` count frames sent to the host,
+    /// `dropped_frames` those that could not be sent, and the error counters what arrived
+    /// from the host.
     pub host: LinkCounters,
     /// Laser bring-up state.
     pub laser_state: LaserState,

@@ -13,4 +13,4 @@ pub mod port;
 pub mod shared;
 
 pub use port::{BaudRate, PortError, SerialRx, SerialTx};
-pub use shared::{LaserRequest, Shared};
+pub use shared::{LaserRequest, Shared, Source};
