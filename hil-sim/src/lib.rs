@@ -2,3 +2,4 @@
 
 pub mod decode_nmea;
 pub mod decode_sick;
+pub mod pty;

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The project's test command: formatting, lints, every test, the fuzz targets, and the board
+# firmware cross-built in release with its size. Run from anywhere in the repository.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() { printf '\n==> %s\n' "$*"; }
+
+# Crates with their own workspace: the board binary and the fuzz targets.
+separate=(firmware/board protocol/fuzz firmware/lib/fuzz)
+
+step "cargo fmt --check"
+cargo fmt --all --check
+for dir in "${separate[@]}"; do
+    cargo fmt --check --manifest-path "$dir/Cargo.toml"
+done
+
+step "cargo clippy (workspace, all targets, -D warnings)"
+cargo clippy --workspace --all-targets -- -D warnings
+
+step "cargo test --workspace"
+cargo test --workspace
+
+step "fuzz targets: build, then a short run of each"
+for dir in protocol firmware/lib; do
+    (cd "$dir" && cargo +nightly fuzz build)
+    for target in $(cd "$dir" && cargo +nightly fuzz list); do
+        (cd "$dir" && cargo +nightly fuzz run "$target" -- -max_total_time="${FUZZ_SECONDS:-15}" 2>&1 | tail -n 1)
+    done
+done
+
+step "board firmware: release build for thumbv7em-none-eabihf (USB link and UART link)"
+(
+    cd firmware/board
+    cargo clippy --release -- -D warnings
+    cargo build --release
+    cargo build --release --no-default-features --features uart-link --target-dir target/uart-link
+)
+elf=firmware/board/target/thumbv7em-none-eabihf/release/sensor-board
+elf_uart=firmware/board/target/uart-link/thumbv7em-none-eabihf/release/sensor-board
+bash tests/firmware-size.sh "$elf" "$elf_uart"
+
+echo
+echo "all checks passed"
