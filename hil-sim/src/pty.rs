@@ -33,10 +33,17 @@ impl PtyLink {
     /// When the system has no free pty.
     pub fn open() -> io::Result<Self> {
         let (device, board) = TTYPort::pair().map_err(io::Error::other)?;
-        let board_path = board.name().map(PathBuf::from).ok_or_else(|| io::Error::other("pty has no name"))?;
+        let board_path = board
+            .name()
+            .map(PathBuf::from)
+            .ok_or_else(|| io::Error::other("pty has no name"))?;
         // Holding the board end open keeps the device end readable (a pty master reads EIO
         // while no slave is open) until the board side has opened it.
-        Ok(PtyLink { device, _board: board, board_path })
+        Ok(PtyLink {
+            device,
+            _board: board,
+            board_path,
+        })
     }
 
     /// The board end's path, e.g. `/dev/pts/3`.
@@ -66,10 +73,15 @@ impl BoardPort {
     /// When the device cannot be opened or configured.
     pub fn open(path: &Path, baud: u32) -> io::Result<Self> {
         let name = path.to_string_lossy().into_owned();
-        let mut termios = serialport::new(&name, baud).open_native().map_err(io::Error::other)?;
+        let mut termios = serialport::new(&name, baud)
+            .open_native()
+            .map_err(io::Error::other)?;
         termios.set_exclusive(false).map_err(io::Error::other)?;
         let file = OpenOptions::new().read(true).write(true).open(path)?;
-        Ok(BoardPort { io: Async::new(file)?, termios })
+        Ok(BoardPort {
+            io: Async::new(file)?,
+            termios,
+        })
     }
 
     /// Splits into a receiving and a transmitting half sharing the device.
@@ -79,7 +91,13 @@ impl BoardPort {
     pub fn split(self) -> io::Result<(BoardPort, BoardPort)> {
         let file = self.io.get_ref().try_clone()?;
         let termios = self.termios.try_clone_native().map_err(io::Error::other)?;
-        Ok((BoardPort { io: Async::new(file)?, termios }, self))
+        Ok((
+            BoardPort {
+                io: Async::new(file)?,
+                termios,
+            },
+            self,
+        ))
     }
 }
 
@@ -94,14 +112,19 @@ impl SerialRx for BoardPort {
 
 impl SerialTx for BoardPort {
     async fn write_all(&mut self, bytes: &[u8]) -> Result<(), PortError> {
-        self.io.write_all(bytes).await.map_err(|_| PortError::Disconnected)
+        self.io
+            .write_all(bytes)
+            .await
+            .map_err(|_| PortError::Disconnected)
     }
 }
 
 impl BaudRate for BoardPort {
     async fn set_baud(&mut self, baud: u32) -> Result<(), PortError> {
         let _ = self.io.flush().await;
-        self.termios.set_baud_rate(baud).map_err(|_| PortError::UnsupportedBaud)
+        self.termios
+            .set_baud_rate(baud)
+            .map_err(|_| PortError::UnsupportedBaud)
     }
 }
 

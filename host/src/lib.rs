@@ -1,1 +1,6 @@
-//! Host software for the robot computer.
+//! Host software for the robot computer: the board link and its time base.
+//!
+//! * [`link`]: reading the board's frames from a serial port, counting every lost frame,
+//!   and mapping board time to host time.
+
+pub mod link;

@@ -22,12 +22,24 @@ pub struct CommandOutcome {
 /// whether the laser task can take one now (if not, the answer is [`AckResult::Busy`]).
 /// Frames of board-to-host kinds are ignored.
 pub fn handle_command(received: &Received, now_us: u64, laser_queue_full: bool) -> CommandOutcome {
-    let mut outcome = CommandOutcome { ack: None, laser: None, status_requested: false };
+    let mut outcome = CommandOutcome {
+        ack: None,
+        laser: None,
+        status_requested: false,
+    };
     let mut host_time_us = 0;
     let result = match &received.message {
         Message::ConfigureLaser(cmd) if !cmd.is_supported() => AckResult::Rejected,
-        Message::ConfigureLaser(cmd) => laser(&mut outcome, LaserRequest::Configure(*cmd), laser_queue_full),
-        Message::SetStreaming(cmd) => laser(&mut outcome, LaserRequest::SetStreaming(cmd.enabled), laser_queue_full),
+        Message::ConfigureLaser(cmd) => laser(
+            &mut outcome,
+            LaserRequest::Configure(*cmd),
+            laser_queue_full,
+        ),
+        Message::SetStreaming(cmd) => laser(
+            &mut outcome,
+            LaserRequest::SetStreaming(cmd.enabled),
+            laser_queue_full,
+        ),
         Message::RequestStatus(_) => {
             outcome.status_requested = true;
             AckResult::Accepted
@@ -66,25 +78,47 @@ pub fn is_command(kind: Kind) -> bool {
 mod tests {
     use super::*;
     use protocol::{
-        AngularResolution, ConfigureLaserCmd, Header, PROTOCOL_VERSION, RangeUnit, ScanAngle, SetStreamingCmd,
-        TimeSyncPingCmd,
+        AngularResolution, ConfigureLaserCmd, Header, PROTOCOL_VERSION, RangeUnit, ScanAngle,
+        SetStreamingCmd, TimeSyncPingCmd,
     };
 
     fn received(message: Message, seq: u16) -> Received {
-        Received { header: Header { version: PROTOCOL_VERSION, kind: message.kind(), seq }, lost_before: 0, message }
+        Received {
+            header: Header {
+                version: PROTOCOL_VERSION,
+                kind: message.kind(),
+                seq,
+            },
+            lost_before: 0,
+            message,
+        }
     }
 
     #[test]
     fn ping_is_acknowledged_with_both_clocks() {
-        let out = handle_command(&received(Message::TimeSyncPing(TimeSyncPingCmd { host_time_us: 77 }), 9), 1234, false);
+        let out = handle_command(
+            &received(
+                Message::TimeSyncPing(TimeSyncPingCmd { host_time_us: 77 }),
+                9,
+            ),
+            1234,
+            false,
+        );
         let ack = out.ack.unwrap();
-        assert_eq!((ack.command_seq, ack.command_kind, ack.result), (9, 0x44, AckResult::Accepted));
+        assert_eq!(
+            (ack.command_seq, ack.command_kind, ack.result),
+            (9, 0x44, AckResult::Accepted)
+        );
         assert_eq!((ack.board_time_us, ack.host_time_us), (1234, 77));
     }
 
     #[test]
     fn unsupported_variant_is_rejected_and_not_forwarded() {
-        let cmd = ConfigureLaserCmd { angle: ScanAngle::Deg180, resolution: AngularResolution::Quarter, unit: RangeUnit::Mm };
+        let cmd = ConfigureLaserCmd {
+            angle: ScanAngle::Deg180,
+            resolution: AngularResolution::Quarter,
+            unit: RangeUnit::Mm,
+        };
         let out = handle_command(&received(Message::ConfigureLaser(cmd), 1), 0, false);
         assert_eq!(out.ack.unwrap().result, AckResult::Rejected);
         assert_eq!(out.laser, None);
@@ -93,7 +127,13 @@ mod tests {
     #[test]
     fn busy_laser_queue_answers_busy() {
         let m = Message::SetStreaming(SetStreamingCmd { enabled: false });
-        assert_eq!(handle_command(&received(m.clone(), 1), 0, true).ack.unwrap().result, AckResult::Busy);
+        assert_eq!(
+            handle_command(&received(m.clone(), 1), 0, true)
+                .ack
+                .unwrap()
+                .result,
+            AckResult::Busy
+        );
         let out = handle_command(&received(m, 2), 0, false);
         assert_eq!(out.laser, Some(LaserRequest::SetStreaming(false)));
     }
@@ -102,6 +142,13 @@ mod tests {
     fn board_messages_from_the_host_are_ignored() {
         let m = Message::Heartbeat(protocol::HeartbeatMsg { uptime_us: 0 });
         let out = handle_command(&received(m, 0), 0, false);
-        assert_eq!(out, CommandOutcome { ack: None, laser: None, status_requested: false });
+        assert_eq!(
+            out,
+            CommandOutcome {
+                ack: None,
+                laser: None,
+                status_requested: false
+            }
+        );
     }
 }

@@ -17,7 +17,10 @@ impl Default for LinkWriter {
 impl LinkWriter {
     /// A writer whose first frame has sequence number 0.
     pub const fn new() -> Self {
-        LinkWriter { encoder: Encoder::new(), wire: [0; MAX_WIRE_LEN] }
+        LinkWriter {
+            encoder: Encoder::new(),
+            wire: [0; MAX_WIRE_LEN],
+        }
     }
 
     /// Encodes `message` after skipping `dropped_before` sequence numbers (frames dropped

@@ -23,12 +23,24 @@ pub async fn run_tx<T: SerialTx>(mut tx: T, shared: &Shared) -> ! {
         let message = if let Ok(control) = shared.control.try_receive() {
             control
         } else {
-            match select3(shared.outbox.receive(), Timer::at(next_tick), shared.status_requested.wait()).await {
+            match select3(
+                shared.outbox.receive(),
+                Timer::at(next_tick),
+                shared.status_requested.wait(),
+            )
+            .await
+            {
                 Either3::First(data) => data,
                 Either3::Second(()) => {
                     next_tick += STATUS_PERIOD;
                     let uptime_us = Instant::now().as_micros();
-                    send(&mut tx, &mut writer, shared, &Message::Heartbeat(HeartbeatMsg { uptime_us })).await;
+                    send(
+                        &mut tx,
+                        &mut writer,
+                        shared,
+                        &Message::Heartbeat(HeartbeatMsg { uptime_us }),
+                    )
+                    .await;
                     Message::Status(shared.status(Instant::now().as_micros()))
                 }
                 Either3::Third(()) => Message::Status(shared.status(Instant::now().as_micros())),
@@ -38,7 +50,12 @@ pub async fn run_tx<T: SerialTx>(mut tx: T, shared: &Shared) -> ! {
     }
 }
 
-async fn send<T: SerialTx>(tx: &mut T, writer: &mut LinkWriter, shared: &Shared, message: &Message) {
+async fn send<T: SerialTx>(
+    tx: &mut T,
+    writer: &mut LinkWriter,
+    shared: &Shared,
+    message: &Message,
+) {
     let dropped = shared.take_unsent_drops();
     let Ok(frame) = writer.frame(message, dropped) else {
         shared.update_host_counters(|c| c.dropped_frames = c.dropped_frames.wrapping_add(1));
@@ -50,7 +67,9 @@ async fn send<T: SerialTx>(tx: &mut T, writer: &mut LinkWriter, shared: &Shared,
             c.telegrams = c.telegrams.wrapping_add(1);
             c.bytes = c.bytes.wrapping_add(len);
         }),
-        Err(_) => shared.update_host_counters(|c| c.dropped_frames = c.dropped_frames.wrapping_add(1)),
+        Err(_) => {
+            shared.update_host_counters(|c| c.dropped_frames = c.dropped_frames.wrapping_add(1))
+        }
     }
 }
 
@@ -94,7 +113,8 @@ pub async fn run_rx<R: SerialRx>(mut rx: R, shared: &Shared) -> ! {
         shared.update_host_counters(|c| {
             // Errors count what arrived from the host; bytes and telegrams what went to it.
             c.crc_errors = stats.crc_errors as u32;
-            c.resyncs = (stats.cobs_errors + stats.truncated + stats.oversize + stats.malformed) as u32;
+            c.resyncs =
+                (stats.cobs_errors + stats.truncated + stats.oversize + stats.malformed) as u32;
             c.uart_overruns = overruns;
         });
     }

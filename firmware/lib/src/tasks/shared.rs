@@ -66,8 +66,14 @@ const fn cell<T>(value: T) -> Shared_<T> {
     Mutex::new(Cell::new(value))
 }
 
-const ZERO: LinkCounters =
-    LinkCounters { bytes: 0, telegrams: 0, crc_errors: 0, resyncs: 0, uart_overruns: 0, dropped_frames: 0 };
+const ZERO: LinkCounters = LinkCounters {
+    bytes: 0,
+    telegrams: 0,
+    crc_errors: 0,
+    resyncs: 0,
+    uart_overruns: 0,
+    dropped_frames: 0,
+};
 
 impl Shared {
     /// Empty queues, zero counters, laser searching its baud rate, GPS silent.
@@ -102,7 +108,9 @@ impl Shared {
             Source::Gps => &self.gps,
             Source::Board => &self.host,
         };
-        update(counters, |c| c.dropped_frames = c.dropped_frames.wrapping_add(1));
+        update(counters, |c| {
+            c.dropped_frames = c.dropped_frames.wrapping_add(1)
+        });
         self.unsent_drops.lock(|d| d.set(d.get().wrapping_add(1)));
         false
     }
@@ -116,13 +124,23 @@ impl Shared {
     /// Stores the laser link counters.
     pub fn set_laser_counters(&self, counters: LinkCounters) {
         let dropped = self.laser.lock(Cell::get).dropped_frames;
-        self.laser.lock(|c| c.set(LinkCounters { dropped_frames: dropped, ..counters }));
+        self.laser.lock(|c| {
+            c.set(LinkCounters {
+                dropped_frames: dropped,
+                ..counters
+            })
+        });
     }
 
     /// Stores the GPS link counters.
     pub fn set_gps_counters(&self, counters: LinkCounters) {
         let dropped = self.gps.lock(Cell::get).dropped_frames;
-        self.gps.lock(|c| c.set(LinkCounters { dropped_frames: dropped, ..counters }));
+        self.gps.lock(|c| {
+            c.set(LinkCounters {
+                dropped_frames: dropped,
+                ..counters
+            })
+        });
     }
 
     /// Changes the host link counters.
@@ -220,8 +238,15 @@ mod tests {
         for _ in 0..=OUTBOX_DEPTH {
             shared.post(heartbeat(), Source::Laser);
         }
-        shared.set_laser_counters(LinkCounters { bytes: 10, telegrams: 1, ..ZERO });
+        shared.set_laser_counters(LinkCounters {
+            bytes: 10,
+            telegrams: 1,
+            ..ZERO
+        });
         let laser = shared.status(0).laser;
-        assert_eq!((laser.bytes, laser.telegrams, laser.dropped_frames), (10, 1, 1));
+        assert_eq!(
+            (laser.bytes, laser.telegrams, laser.dropped_frames),
+            (10, 1, 1)
+        );
     }
 }
