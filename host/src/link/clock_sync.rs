@@ -70,7 +70,7 @@ impl ClockSync {
     /// acknowledgement received at host `recv_s`. Samples with a negative round trip are ignored.
     pub fn add_round_trip(&mut self, send_s: f64, board_us: u64, recv_s: f64) {
         let rtt_s = recv_s - send_s;
-        if !(rtt_s >= 0.0) {
+        if rtt_s.is_nan() || rtt_s < 0.0 {
             return;
         }
         if self.samples.len() == self.options.window {

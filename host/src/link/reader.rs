@@ -34,12 +34,9 @@ impl LinkReader {
     pub fn feed(&mut self, bytes: &[u8]) -> Vec<Received> {
         let mut out = Vec::new();
         for &b in bytes {
-            match self.decoder.push(b) {
-                Some(Ok(received)) => {
-                    self.per_kind[usize::from(u8::from(received.header.kind))] += 1;
-                    out.push(received);
-                }
-                Some(Err(_)) | None => {}
+            if let Some(Ok(received)) = self.decoder.push(b) {
+                self.per_kind[usize::from(u8::from(received.header.kind))] += 1;
+                out.push(received);
             }
         }
         out
