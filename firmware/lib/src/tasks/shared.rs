@@ -76,7 +76,8 @@ const ZERO: LinkCounters = LinkCounters {
 };
 
 impl Shared {
-    /// Empty queues, zero counters, laser searching its baud rate, GPS silent.
+    /// Empty queues, zero counters, laser searching its baud rate (0: not known yet), GPS
+    /// silent. Everything starts at zero so that a `static` of it costs no flash.
     pub const fn new() -> Self {
         Shared {
             outbox: Channel::new(),
@@ -86,7 +87,7 @@ impl Shared {
             laser: cell(ZERO),
             gps: cell(ZERO),
             host: cell(ZERO),
-            laser_state: cell((LaserState::DetectingBaud, 9600)),
+            laser_state: cell((LaserState::DetectingBaud, 0)),
             gps_state: cell(GpsState::Silent),
             pps_edges: cell((0, 0)),
             unsent_drops: cell(0),
