@@ -65,6 +65,8 @@ use embassy_stm32::peripherals::{
 use embassy_stm32::usart::{self, Uart, UartRx};
 use embassy_stm32::{Peri, bind_interrupts, dma, peripherals};
 use embassy_time::Instant;
+use firmware::sick::BringUpConfig;
+use firmware::tasks::gps::GpsOptions;
 use firmware::tasks::{Shared, gps, lidar, link};
 use static_cell::ConstStaticCell;
 use {defmt_rtt as _, panic_probe as _};
@@ -224,7 +226,9 @@ async fn lidar_task(r: LaserUart) -> ! {
     ));
     let (tx, rx) = uart.split();
     let rx = RingRxPort::new(rx.into_ring_buffered(LASER_RX_RING.take()));
-    lidar::run(LaserPort::new(tx, rx, LASER_POWER_UP_BAUD), &SHARED).await
+    // Default target: 180° at 0.5°, millimetres, streaming at 500 kBd; the host may change it.
+    let port = LaserPort::new(tx, rx, LASER_POWER_UP_BAUD);
+    lidar::run(port, &SHARED, BringUpConfig::default()).await
 }
 
 /// GPS UART → [`gps::run`]: NMEA sentences, fixes to the outbox.
@@ -239,7 +243,7 @@ async fn gps_task(r: GpsUart) -> ! {
         uart_config(GPS_BAUD)
     ));
     let rx = RingRxPort::new(rx.into_ring_buffered(GPS_RX_RING.take()));
-    gps::run(rx, &SHARED).await
+    gps::run(rx, &SHARED, GpsOptions::default()).await
 }
 
 /// PPS rising edges → [`gps::on_pps_edge`] with the board time of the edge.
