@@ -1,1 +1,28 @@
-//! Shared helpers for the end-to-end tests.
+//! Helpers for the end-to-end tests: reading what the board sends to the host.
+
+use std::io::Read;
+use std::time::{Duration, Instant};
+
+use host::link::LinkReader;
+use protocol::Received;
+use serialport::TTYPort;
+
+/// Reads frames from the device end of the host-link pty until `done` says so or `timeout`
+/// passes; returns everything received.
+pub fn read_until(
+    port: &mut TTYPort,
+    reader: &mut LinkReader,
+    timeout: Duration,
+    mut done: impl FnMut(&[Received]) -> bool,
+) -> Vec<Received> {
+    let deadline = Instant::now() + timeout;
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    let _ = serialport::SerialPort::set_timeout(port, Duration::from_millis(50));
+    while Instant::now() < deadline && !done(&got) {
+        if let Ok(n) = port.read(&mut buf) {
+            got.extend(reader.feed(&buf[..n]));
+        }
+    }
+    got
+}

@@ -1,5 +1,6 @@
 //! hil-sim: runs the firmware logic on the host against real captures and emulated sensors.
 
+pub mod board;
 pub mod decode_nmea;
 pub mod decode_sick;
 pub mod pty;
