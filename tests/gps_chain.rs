@@ -21,12 +21,17 @@ fn without_stamp(mut fix: GpsFixMsg) -> GpsFixMsg {
 
 #[test]
 fn receiver_log_arrives_at_the_host_intact() {
-    let Some(path) = datasets::require("nmea-real/gpsd/ublox-lea-4h.log", "receiver_log_arrives_at_the_host_intact")
-    else {
+    let Some(path) = datasets::require(
+        "nmea-real/gpsd/ublox-lea-4h.log",
+        "receiver_log_arrives_at_the_host_intact",
+    ) else {
         return;
     };
     let log = std::fs::read(&path).unwrap();
-    let lines: Vec<&[u8]> = log.split_inclusive(|&b| b == b'\n').filter(|l| !l.starts_with(b"#")).collect();
+    let lines: Vec<&[u8]> = log
+        .split_inclusive(|&b| b == b'\n')
+        .filter(|l| !l.starts_with(b"#"))
+        .collect();
 
     let mut expected = Vec::new();
     let mut parser = GpsReceiver::new();
@@ -55,9 +60,17 @@ fn receiver_log_arrives_at_the_host_intact() {
     }
     let mut reader = LinkReader::new();
     let want = expected.len();
-    let received = read_until(&mut host.device, &mut reader, Duration::from_secs(20), |got| {
-        got.iter().filter(|r| matches!(r.message, Message::GpsFix(_))).count() >= want
-    });
+    let received = read_until(
+        &mut host.device,
+        &mut reader,
+        Duration::from_secs(20),
+        |got| {
+            got.iter()
+                .filter(|r| matches!(r.message, Message::GpsFix(_)))
+                .count()
+                >= want
+        },
+    );
     let fixes: Vec<GpsFixMsg> = received
         .iter()
         .filter_map(|r| match &r.message {

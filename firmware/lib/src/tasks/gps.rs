@@ -38,7 +38,11 @@ pub async fn run<P: SerialRx>(mut port: P, shared: &Shared, options: GpsOptions)
                 let accepted_before = receiver.stats().accepted;
                 receiver.push(buf.get(..n).unwrap_or(&[]), now.as_micros(), |s| {
                     if let Some(fix) = s.fix {
-                        let state = if fix.quality == FixQuality::Invalid { GpsState::NoFix } else { GpsState::Fix };
+                        let state = if fix.quality == FixQuality::Invalid {
+                            GpsState::NoFix
+                        } else {
+                            GpsState::Fix
+                        };
                         shared.set_gps_state(state);
                         shared.post(Message::GpsFix(fix), Source::Gps);
                     }
@@ -66,7 +70,11 @@ pub async fn run<P: SerialRx>(mut port: P, shared: &Shared, options: GpsOptions)
             bytes: s.bytes,
             telegrams: s.accepted.wrapping_add(s.unsupported),
             crc_errors: s.bad_checksum.wrapping_add(s.missing_checksum),
-            resyncs: s.truncated.wrapping_add(s.too_long).wrapping_add(s.non_printable).wrapping_add(s.malformed),
+            resyncs: s
+                .truncated
+                .wrapping_add(s.too_long)
+                .wrapping_add(s.non_printable)
+                .wrapping_add(s.malformed),
             uart_overruns: uart.overruns,
             dropped_frames: 0,
         });

@@ -16,13 +16,19 @@ use protocol::{LinkCounters, Message};
 use super::gps::{DISCONNECTED_POLL, UartErrors};
 use super::port::{BaudRate, PortError, SerialRx, SerialTx};
 use super::shared::{LaserRequest, Shared, Source};
-use crate::sick::{Action, Actions, BringUp, BringUpConfig, Event, Input, Receiver, ScanRepr, StreamingSetup};
+use crate::sick::{
+    Action, Actions, BringUp, BringUpConfig, Event, Input, Receiver, ScanRepr, StreamingSetup,
+};
 
 /// The `B0h` measured-value reply code.
 const SCAN_CODE: u8 = 0xB0;
 
 /// Reads the laser UART, runs bring-up, forwards scans; never returns.
-pub async fn run<P: SerialRx + SerialTx + BaudRate>(port: P, shared: &Shared, config: BringUpConfig) -> ! {
+pub async fn run<P: SerialRx + SerialTx + BaudRate>(
+    port: P,
+    shared: &Shared,
+    config: BringUpConfig,
+) -> ! {
     let mut task = Lidar {
         port,
         shared,
@@ -46,7 +52,13 @@ pub async fn run<P: SerialRx + SerialTx + BaudRate>(port: P, shared: &Shared, co
                 None => core::future::pending().await,
             }
         };
-        match select3(task.port.read(&mut buf), timer, shared.laser_requests.receive()).await {
+        match select3(
+            task.port.read(&mut buf),
+            timer,
+            shared.laser_requests.receive(),
+        )
+        .await
+        {
             Either3::First(Ok(n)) => task.on_bytes(buf.get(..n).unwrap_or(&[])).await,
             Either3::First(Err(e)) => {
                 task.uart.count(e);
@@ -102,7 +114,13 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
         for (i, &byte) in bytes.iter().enumerate() {
             let stamp_us = now_us.saturating_sub((last - i as u64) * char_us);
             let actions = match self.receiver.push(byte, stamp_us) {
-                Some(event) => handle_event(&mut self.bringup, self.shared, self.setup, &mut self.scans, event),
+                Some(event) => handle_event(
+                    &mut self.bringup,
+                    self.shared,
+                    self.setup,
+                    &mut self.scans,
+                    event,
+                ),
                 None => continue,
             };
             let baud_before = self.baud;
@@ -130,7 +148,13 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
     async fn drain(&mut self, now_us: u64) {
         loop {
             let actions = match self.receiver.poll(now_us) {
-                Some(event) => handle_event(&mut self.bringup, self.shared, self.setup, &mut self.scans, event),
+                Some(event) => handle_event(
+                    &mut self.bringup,
+                    self.shared,
+                    self.setup,
+                    &mut self.scans,
+                    event,
+                ),
                 None => return,
             };
             self.execute(actions).await;
@@ -152,7 +176,8 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
                     self.receiver.clear();
                 }
                 Action::StartTimer { duration_ms } => {
-                    self.deadline = Some(Instant::now() + Duration::from_millis(u64::from(duration_ms)));
+                    self.deadline =
+                        Some(Instant::now() + Duration::from_millis(u64::from(duration_ms)));
                 }
                 Action::Streaming(setup) => self.setup = Some(setup),
                 Action::StreamingStopped | Action::Failed => self.setup = None,
@@ -189,7 +214,12 @@ fn handle_event(
         && let Ok(scan) = ScanRepr::parse(telegram)
     {
         *scans = scans.wrapping_add(1);
-        let msg = scan.to_msg(*stamp_us, *scans, setup.start_angle_cdeg, setup.step_angle_cdeg);
+        let msg = scan.to_msg(
+            *stamp_us,
+            *scans,
+            setup.start_angle_cdeg,
+            setup.step_angle_cdeg,
+        );
         shared.post(Message::Scan(msg), Source::Laser);
     }
     bringup.handle(Input::from(event))
