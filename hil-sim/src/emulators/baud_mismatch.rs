@@ -26,13 +26,7 @@ pub fn garble(bytes: &[u8], sent_baud: u32, heard_baud: u32) -> Vec<u8> {
             (Some(byte), bit) => (byte >> (bit - 1)) & 1 == 1,
         }
     };
-    let level_at = |t: f64| -> bool {
-        if t < 0.0 {
-            true
-        } else {
-            level(t as usize)
-        }
-    };
+    let level_at = |t: f64| -> bool { if t < 0.0 { true } else { level(t as usize) } };
     // One receiver bit time, in sent bit times.
     let q = f64::from(sent_baud) / f64::from(heard_baud);
     let mut out = Vec::new();
@@ -58,7 +52,10 @@ mod tests {
 
     #[test]
     fn same_rate_is_transparent() {
-        assert_eq!(garble(&[0x02, 0x80, 0x06], 9_600, 9_600), [0x02, 0x80, 0x06]);
+        assert_eq!(
+            garble(&[0x02, 0x80, 0x06], 9_600, 9_600),
+            [0x02, 0x80, 0x06]
+        );
     }
 
     #[test]
@@ -68,8 +65,15 @@ mod tests {
         assert!(slow.len() < 2, "{slow:02X?}");
         let fast = garble(&telegram, 9_600, 500_000);
         assert_ne!(fast, telegram);
-        assert!(fast.iter().all(|&b| b == 0x00 || b == 0x80 || b & 0x0F == 0), "{fast:02X?}");
+        assert!(
+            fast.iter()
+                .all(|&b| b == 0x00 || b == 0x80 || b & 0x0F == 0),
+            "{fast:02X?}"
+        );
         // Deterministic.
-        assert_eq!(garble(&telegram, 38_400, 19_200), garble(&telegram, 38_400, 19_200));
+        assert_eq!(
+            garble(&telegram, 38_400, 19_200),
+            garble(&telegram, 38_400, 19_200)
+        );
     }
 }

@@ -156,14 +156,26 @@ mod tests {
         line.transmit_until(2_041, &mut out);
         assert!(out.is_empty());
         line.transmit_until(2_042, &mut out);
-        assert_eq!(out, [TxRun { baud: 9_600, bytes: vec![1] }]);
+        assert_eq!(
+            out,
+            [TxRun {
+                baud: 9_600,
+                bytes: vec![1]
+            }]
+        );
         assert_eq!(line.next_byte_end_us(), Some(1_000 + 2_084));
         // A chunk pushed for an earlier time waits for the line.
         line.push(0, 500_000, vec![4, 5], false);
         line.transmit_until(10_000, &mut out);
         assert_eq!(out.len(), 2);
         assert_eq!(out[0].bytes, [1, 2, 3]);
-        assert_eq!(out[1], TxRun { baud: 500_000, bytes: vec![4, 5] });
+        assert_eq!(
+            out[1],
+            TxRun {
+                baud: 500_000,
+                bytes: vec![4, 5]
+            }
+        );
         assert_eq!(line.free_at_us(), 4_125 + 40);
     }
 

@@ -56,7 +56,10 @@ mod tests {
         // 2024-06-01T12:00:00.25Z.
         let (date, time) = utc_from_unix_us(1_717_243_200_250_000);
         assert_eq!((date.year, date.month, date.day), (2024, 6, 1));
-        assert_eq!((time.hour, time.minute, time.second, time.micros), (12, 0, 0, 250_000));
+        assert_eq!(
+            (time.hour, time.minute, time.second, time.micros),
+            (12, 0, 0, 250_000)
+        );
         // Leap day and the day after.
         let (date, _) = utc_from_unix_us(1_709_164_800 * 1_000_000);
         assert_eq!((date.year, date.month, date.day), (2024, 2, 29));
