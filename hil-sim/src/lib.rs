@@ -3,6 +3,7 @@
 pub mod board;
 pub mod decode_nmea;
 pub mod decode_sick;
+pub mod demo;
 pub mod devices;
 pub mod emulators;
 pub mod pty;

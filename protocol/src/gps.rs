@@ -104,12 +104,12 @@ pub struct Position {
 impl Position {
     /// Latitude in degrees.
     pub fn lat_deg(&self) -> f64 {
-        self.lat_ndeg as f64 * 1e-9
+        self.lat_ndeg as f64 / 1e9
     }
 
     /// Longitude in degrees.
     pub fn lon_deg(&self) -> f64 {
-        self.lon_ndeg as f64 * 1e-9
+        self.lon_ndeg as f64 / 1e9
     }
 }
 

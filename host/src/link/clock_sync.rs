@@ -8,6 +8,9 @@
 
 use std::collections::VecDeque;
 
+/// The time the fitted samples must span before a drift is estimated, s.
+pub const MIN_DRIFT_SPAN_S: f64 = 60.0;
+
 /// One round trip.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Sample {
@@ -125,8 +128,11 @@ impl ClockSync {
             .iter()
             .map(|s| (s.board_s - mean_b) * (s.host_s - mean_h))
             .sum();
-        // Drift needs a few seconds of spread to be meaningful; until then assume none.
-        self.scale = if sxx > 1.0 {
+        // A drift estimate needs a long baseline: with millisecond jitter over a few seconds
+        // it would be off by hundreds of ppm. Until the samples span a minute, assume none.
+        let first_s = self.samples.front().map_or(0.0, |s| s.board_s);
+        let last_s = self.samples.back().map_or(0.0, |s| s.board_s);
+        self.scale = if last_s - first_s >= MIN_DRIFT_SPAN_S && sxx > 0.0 {
             (sxy / sxx).clamp(1.0 - 1e-3, 1.0 + 1e-3)
         } else {
             1.0
@@ -144,7 +150,7 @@ mod tests {
         let mut sync = ClockSync::default();
         // Board clock runs 50 ppm fast; host = 1000 + board / (1 + 50e-6).
         let truth = |board_s: f64| 1000.0 + board_s / (1.0 + 50e-6);
-        for i in 0..60u64 {
+        for i in 0..120u64 {
             let board_us = i * 1_000_000;
             let h = truth(board_us as f64 * 1e-6);
             // Every third round trip is delayed asymmetrically by 20 ms.
@@ -155,7 +161,7 @@ mod tests {
             };
             sync.add_round_trip(send, board_us, recv);
         }
-        let t = 30_500_000u64;
+        let t = 90_500_000u64;
         assert!((sync.to_host_s(t) - truth(t as f64 * 1e-6)).abs() < 1e-4);
         assert!(
             (sync.drift_ppm() + 50.0).abs() < 5.0,

@@ -239,11 +239,15 @@ impl Receiver {
     /// Takes the next byte from the sensor, received at `now_us` (any monotonic µs clock).
     ///
     /// Returns the event this byte completes, or one left over from an earlier byte.
+    ///
+    /// Time stamps must not go backwards; one that does (an estimate from a chunked read, for
+    /// instance) is taken as the previous one.
     #[inline]
     pub fn push(&mut self, byte: u8, now_us: u64) -> Option<Event<'_>> {
+        let now_us = now_us.max(self.last_us);
         let i = self.end;
         // Fast path: inside a telegram body, nothing else pending, no pause.
-        if i < self.fast_end && now_us.wrapping_sub(self.last_us) <= self.timeout_us {
+        if i < self.fast_end && now_us - self.last_us <= self.timeout_us {
             // `i < fast_end <= CAPACITY`, so the slot exists.
             if let Some(slot) = self.buf.get_mut(i) {
                 *slot = byte;
@@ -268,6 +272,7 @@ impl Receiver {
     /// Call it when the UART has been idle for a while, and after an event until it returns
     /// `None`, to drain events without waiting for the next byte.
     pub fn poll(&mut self, now_us: u64) -> Option<Event<'_>> {
+        let now_us = now_us.max(self.last_us);
         if self.end > self.start && now_us.wrapping_sub(self.last_us) > self.timeout_us {
             self.quiet = true;
         } else if self.fast_end != 0 {
@@ -513,6 +518,25 @@ impl Receiver {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clock_stepping_back_is_not_a_pause() {
+        // Chunked reads give estimated stamps that may step back a little between chunks.
+        let telegram = [0x02, 0x80, 0x03, 0x00, 0xA0, 0x00, 0x10, 0x16, 0x0A];
+        let mut rx = Receiver::new();
+        let stamps = [
+            1_000u64, 1_020, 1_040, 1_010, 1_030, 1_050, 1_060, 1_045, 1_065,
+        ];
+        let mut got = 0;
+        for (&b, &t) in telegram.iter().zip(&stamps) {
+            if let Some(Event::Telegram { stamp_us, .. }) = rx.push(b, t) {
+                assert_eq!(stamp_us, 1_000);
+                got += 1;
+            }
+        }
+        assert_eq!(got, 1);
+        assert_eq!(rx.stats().timeouts, 0);
+    }
     use crate::sick::test_data::{hex, real_b0};
     use proptest::prelude::*;
 
