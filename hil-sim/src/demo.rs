@@ -65,8 +65,11 @@ pub struct LaserReport {
     pub emulator_scans_skipped: u64,
     /// Scans that reached the host.
     pub host_scans: u64,
-    /// Scans per second at the host between the first and the last scan.
-    pub host_scans_per_s: f64,
+    /// Scans per second, from the board time stamps of the first and the last scan.
+    pub scans_per_s: f64,
+    /// Bytes the emulated sensor could not deliver because the firmware did not read them in
+    /// time (what a UART overrun loses on hardware).
+    pub emulator_bytes_dropped: u64,
     /// Gaps in the firmware's scan counter seen by the host (scans dropped on the board).
     pub scan_counter_gaps: u64,
     /// Range values per scan in the last scan.
@@ -78,8 +81,10 @@ pub struct LaserReport {
 pub struct GpsReport {
     /// Epochs the emulated receiver sent.
     pub emulator_epochs: u64,
-    /// Fix reports that reached the host.
+    /// Fix reports that reached the host (one per GGA and one per RMC).
     pub host_fixes: u64,
+    /// Bytes the emulated receiver could not deliver because the firmware did not read them.
+    pub emulator_bytes_dropped: u64,
     /// The last position received, degrees.
     pub last_lat_deg: Option<f64>,
     /// The last position received, degrees.
@@ -164,10 +169,9 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
     let gps_thread =
         devices::spawn_gps_with(gps_link, gps, stop.clone(), GpsDeviceOptions::default());
 
-    let host = read_host(&mut host_link.device, &options)?;
+    let host = read_host(&mut host_link.device, &options, &stop)?;
     let _ = shared;
 
-    stop.store(true, Ordering::Relaxed);
     let lms = lms_thread
         .join()
         .map_err(|_| io::Error::other("laser emulator thread panicked"))?;
@@ -178,8 +182,8 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
     let gps_counters = gps.emulator.counters();
 
     let stats = host.reader.stats();
-    let scan_span_s = match (host.first_scan_s, host.last_scan_s) {
-        (Some(a), Some(b)) if b > a => b - a,
+    let scan_span_s = match (host.first_scan_stamp_us, host.last_scan_stamp_us) {
+        (Some(a), Some(b)) if b > a => (b - a) as f64 * 1e-6,
         _ => 0.0,
     };
     Ok(DemoReport {
@@ -193,17 +197,19 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
             emulator_scans_sent: u64::from(lms_counters.scans_sent),
             emulator_scans_skipped: u64::from(lms_counters.scans_skipped),
             host_scans: host.scans,
-            host_scans_per_s: if scan_span_s > 0.0 {
+            scans_per_s: if scan_span_s > 0.0 {
                 (host.scans.saturating_sub(1)) as f64 / scan_span_s
             } else {
                 0.0
             },
             scan_counter_gaps: host.scan_counter_gaps,
             values_per_scan: host.values_per_scan,
+            emulator_bytes_dropped: lms.bytes_dropped,
         },
         gps: GpsReport {
             emulator_epochs: u64::from(gps_counters.epochs),
             host_fixes: host.fixes,
+            emulator_bytes_dropped: gps.bytes_dropped,
             last_lat_deg: host.last_fix.and_then(|f| f.position).map(|p| p.lat_deg()),
             last_lon_deg: host.last_fix.and_then(|f| f.position).map(|p| p.lon_deg()),
         },
@@ -226,7 +232,8 @@ struct HostView {
     status: Option<StatusMsg>,
     scans: u64,
     first_scan_s: Option<f64>,
-    last_scan_s: Option<f64>,
+    first_scan_stamp_us: Option<u64>,
+    last_scan_stamp_us: Option<u64>,
     last_scan_counter: Option<u32>,
     scan_counter_gaps: u64,
     values_per_scan: usize,
@@ -234,8 +241,16 @@ struct HostView {
     last_fix: Option<GpsFixMsg>,
 }
 
-/// Reads the host link for the run's duration, pinging the board once a second.
-fn read_host(port: &mut serialport::TTYPort, options: &DemoOptions) -> io::Result<HostView> {
+/// After the sensors stop, how long the host keeps reading so that what is in flight arrives.
+const DRAIN_S: f64 = 0.5;
+
+/// Reads the host link for the run's duration, pinging the board once a second; then stops
+/// the sensors (`stop`) and reads [`DRAIN_S`] longer.
+fn read_host(
+    port: &mut serialport::TTYPort,
+    options: &DemoOptions,
+    stop: &AtomicBool,
+) -> io::Result<HostView> {
     port.set_timeout(Duration::from_millis(20))
         .map_err(io::Error::other)?;
     let start = Instant::now();
@@ -245,7 +260,8 @@ fn read_host(port: &mut serialport::TTYPort, options: &DemoOptions) -> io::Resul
         status: None,
         scans: 0,
         first_scan_s: None,
-        last_scan_s: None,
+        first_scan_stamp_us: None,
+        last_scan_stamp_us: None,
         last_scan_counter: None,
         scan_counter_gaps: 0,
         values_per_scan: 0,
@@ -257,8 +273,11 @@ fn read_host(port: &mut serialport::TTYPort, options: &DemoOptions) -> io::Resul
     let mut next_ping_s = 0.5;
     let mut last_state = None;
     let mut buf = [0u8; 8192];
-    while start.elapsed().as_secs_f64() < options.seconds {
+    while start.elapsed().as_secs_f64() < options.seconds + DRAIN_S {
         let now_s = start.elapsed().as_secs_f64();
+        if now_s >= options.seconds {
+            stop.store(true, Ordering::Relaxed);
+        }
         if now_s >= next_ping_s {
             next_ping_s += 1.0;
             let mut out = [0u8; MAX_WIRE_LEN];
@@ -282,7 +301,8 @@ fn read_host(port: &mut serialport::TTYPort, options: &DemoOptions) -> io::Resul
                 Message::Scan(scan) => {
                     view.scans += 1;
                     view.first_scan_s.get_or_insert(recv_s);
-                    view.last_scan_s = Some(recv_s);
+                    view.first_scan_stamp_us.get_or_insert(scan.stamp_us);
+                    view.last_scan_stamp_us = Some(scan.stamp_us);
                     if let Some(last) = view.last_scan_counter {
                         view.scan_counter_gaps +=
                             u64::from(scan.scan_counter.wrapping_sub(last).saturating_sub(1));

@@ -244,10 +244,10 @@ impl Receiver {
     /// instance) is taken as the previous one.
     #[inline]
     pub fn push(&mut self, byte: u8, now_us: u64) -> Option<Event<'_>> {
-        let now_us = now_us.max(self.last_us);
         let i = self.end;
-        // Fast path: inside a telegram body, nothing else pending, no pause.
-        if i < self.fast_end && now_us - self.last_us <= self.timeout_us {
+        // Fast path: inside a telegram body, nothing else pending, no pause. A stamp that
+        // steps back makes the difference wrap and takes the slow path, which handles it.
+        if i < self.fast_end && now_us.wrapping_sub(self.last_us) <= self.timeout_us {
             // `i < fast_end <= CAPACITY`, so the slot exists.
             if let Some(slot) = self.buf.get_mut(i) {
                 *slot = byte;
@@ -286,6 +286,7 @@ impl Receiver {
     /// Appends a byte outside the fast path, making room first.
     #[cold]
     fn store(&mut self, byte: u8, now_us: u64) {
+        let now_us = now_us.max(self.last_us);
         self.quiet = false;
         self.stats.bytes = self.stats.bytes.wrapping_add(1);
         if self.fast_end != 0 {

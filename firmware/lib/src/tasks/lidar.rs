@@ -38,6 +38,7 @@ pub async fn run<P: SerialRx + SerialTx + BaudRate>(
         setup: None,
         baud: 9_600,
         scans: 0,
+        last_stamp_us: 0,
         uart: UartErrors::default(),
     };
     let start = task.bringup.handle(Input::Start);
@@ -92,6 +93,8 @@ struct Lidar<'s, P> {
     baud: u32,
     /// Valid scans received since boot.
     scans: u32,
+    /// Estimated arrival of the last byte read, µs.
+    last_stamp_us: u64,
     uart: UartErrors,
 }
 
@@ -112,7 +115,11 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
         let char_us = 10_000_000 / u64::from(self.baud.max(1));
         let last = bytes.len().saturating_sub(1) as u64;
         for (i, &byte) in bytes.iter().enumerate() {
-            let stamp_us = now_us.saturating_sub((last - i as u64) * char_us);
+            // Never before the previous byte: chunks may come faster than the estimate.
+            let stamp_us = now_us
+                .saturating_sub((last - i as u64) * char_us)
+                .max(self.last_stamp_us);
+            self.last_stamp_us = stamp_us;
             let actions = match self.receiver.push(byte, stamp_us) {
                 Some(event) => handle_event(
                     &mut self.bringup,
