@@ -40,5 +40,8 @@ elf=firmware/board/target/thumbv7em-none-eabihf/release/sensor-board
 elf_uart=firmware/board/target/uart-link/thumbv7em-none-eabihf/release/sensor-board
 bash tests/firmware-size.sh "$elf" "$elf_uart"
 
+step "instructions per B0 telegram (callgrind)"
+bash tests/sick-instructions.sh
+
 echo
 echo "all checks passed"
