@@ -67,6 +67,8 @@ kinds! {
     Log = 0x06, BoardToHost;
     /// Acknowledgement of a host command ([`crate::AckMsg`]).
     Ack = 0x07, BoardToHost;
+    /// A GPS pulse-per-second edge ([`crate::PpsMsg`]).
+    Pps = 0x08, BoardToHost;
     /// Configure the laser's variant and units ([`crate::ConfigureLaserCmd`]).
     ConfigureLaser = 0x41, HostToBoard;
     /// Start or stop laser streaming ([`crate::SetStreamingCmd`]).

@@ -7,7 +7,7 @@ use serde::{Serialize, de::DeserializeOwned};
 use crate::frame::{self, Frame, Header};
 use crate::{
     AckMsg, ConfigureLaserCmd, GpsFixMsg, HeartbeatMsg, Kind, LogMsg, NmeaMsg, PROTOCOL_VERSION,
-    RequestStatusCmd, ScanMsg, SetStreamingCmd, StatusMsg, TimeSyncPingCmd,
+    PpsMsg, RequestStatusCmd, ScanMsg, SetStreamingCmd, StatusMsg, TimeSyncPingCmd,
 };
 
 /// What can be wrong with a frame's payload.
@@ -54,6 +54,8 @@ pub enum Message {
     Log(LogMsg),
     /// Board → host: command acknowledgement.
     Ack(AckMsg),
+    /// Board → host: a PPS edge.
+    Pps(PpsMsg),
     /// Host → board: configure the laser.
     ConfigureLaser(ConfigureLaserCmd),
     /// Host → board: start or stop streaming.
@@ -94,6 +96,7 @@ macro_rules! dispatch {
             Message::Heartbeat($value) => $body,
             Message::Log($value) => $body,
             Message::Ack($value) => $body,
+            Message::Pps($value) => $body,
             Message::ConfigureLaser($value) => $body,
             Message::SetStreaming($value) => $body,
             Message::RequestStatus($value) => $body,
@@ -113,6 +116,7 @@ impl Message {
             Message::Heartbeat(_) => Kind::Heartbeat,
             Message::Log(_) => Kind::Log,
             Message::Ack(_) => Kind::Ack,
+            Message::Pps(_) => Kind::Pps,
             Message::ConfigureLaser(_) => Kind::ConfigureLaser,
             Message::SetStreaming(_) => Kind::SetStreaming,
             Message::RequestStatus(_) => Kind::RequestStatus,
@@ -136,6 +140,7 @@ impl Message {
             Kind::Heartbeat => Message::Heartbeat(decode(p)?),
             Kind::Log => Message::Log(decode(p)?),
             Kind::Ack => Message::Ack(decode(p)?),
+            Kind::Pps => Message::Pps(decode(p)?),
             Kind::ConfigureLaser => Message::ConfigureLaser(decode(p)?),
             Kind::SetStreaming => Message::SetStreaming(decode(p)?),
             Kind::RequestStatus => Message::RequestStatus(decode(p)?),

@@ -240,6 +240,7 @@ fn message() -> impl Strategy<Value = Message> {
         Just(Message::RequestStatus(RequestStatusCmd)),
         any::<u64>()
             .prop_map(|host_time_us| Message::TimeSyncPing(TimeSyncPingCmd { host_time_us })),
+        any::<(u64, u32)>().prop_map(|(edge_us, count)| Message::Pps(PpsMsg { edge_us, count })),
     ]
 }
 

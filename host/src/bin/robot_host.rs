@@ -249,6 +249,10 @@ fn describe(r: &Received, clock: &ClockSync, scan_values: bool) -> serde_json::V
             json!({"kind": "log", "seq": seq, "stamp_us": l.stamp_us, "level": l.level, "text": l.text.as_str()})
         }
         Message::Ack(a) => json!({"kind": "ack", "seq": seq, "ack": a}),
+        Message::Pps(p) => json!({
+            "kind": "pps", "seq": seq, "edge_us": p.edge_us, "count": p.count,
+            "host_time_s": clock.to_host_s(p.edge_us),
+        }),
         other => json!({"kind": "unexpected", "seq": seq, "message_kind": u8::from(other.kind())}),
     }
 }

@@ -148,5 +148,9 @@ pub fn all() -> Vec<Message> {
         Message::SetStreaming(SetStreamingCmd { enabled: true }),
         Message::RequestStatus(RequestStatusCmd),
         Message::TimeSyncPing(TimeSyncPingCmd { host_time_us: 999 }),
+        Message::Pps(PpsMsg {
+            edge_us: 2_000_000,
+            count: 2,
+        }),
     ]
 }

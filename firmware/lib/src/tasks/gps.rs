@@ -6,7 +6,7 @@
 //! time and give the precise second boundary.
 
 use embassy_time::{Duration, Instant, Timer, with_timeout};
-use protocol::{FixQuality, GpsState, LinkCounters, Message};
+use protocol::{FixQuality, GpsState, LinkCounters, Message, PpsMsg};
 
 use super::port::{PortError, SerialRx};
 use super::shared::{Shared, Source};
@@ -107,4 +107,40 @@ impl UartErrors {
 /// Records a PPS edge seen at board time `now_us` (call from the pin's edge task).
 pub fn on_pps_edge(shared: &Shared, now_us: u64) {
     shared.record_pps_edge(now_us);
+    let (count, _) = shared.pps_edges();
+    shared.post(
+        Message::Pps(PpsMsg {
+            edge_us: now_us,
+            count,
+        }),
+        Source::Gps,
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pps_edges_are_counted_and_sent_with_their_time() {
+        let shared = Shared::new();
+        on_pps_edge(&shared, 1_000_000);
+        on_pps_edge(&shared, 2_000_013);
+        assert_eq!(shared.pps_edges(), (2, 2_000_013));
+        assert_eq!(shared.status(0).pps_edges, 2);
+        let sent: Vec<Message> = core::iter::from_fn(|| shared.outbox.try_receive().ok()).collect();
+        assert_eq!(
+            sent,
+            [
+                Message::Pps(PpsMsg {
+                    edge_us: 1_000_000,
+                    count: 1
+                }),
+                Message::Pps(PpsMsg {
+                    edge_us: 2_000_013,
+                    count: 2
+                }),
+            ]
+        );
+    }
 }
