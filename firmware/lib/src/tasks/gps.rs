@@ -8,15 +8,12 @@
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 use protocol::{FixQuality, GpsState, LinkCounters, Message, PpsMsg};
 
-use super::port::{PortError, SerialRx};
+use super::port::{DISCONNECTED_POLL, PortError, SerialRx, UartErrors};
 use super::shared::{Shared, Source};
 use crate::nmea::GpsReceiver;
 
 /// With no valid sentence for this long the GPS counts as silent.
 pub const SILENCE_TIMEOUT: Duration = Duration::from_secs(3);
-
-/// How long to wait before reading again from a disconnected port.
-pub(crate) const DISCONNECTED_POLL: Duration = Duration::from_millis(50);
 
 /// Options of the GPS task.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -78,29 +75,6 @@ pub async fn run<P: SerialRx>(mut port: P, shared: &Shared, options: GpsOptions)
             uart_overruns: uart.overruns,
             dropped_frames: 0,
         });
-    }
-}
-
-/// Receive errors reported by a port.
-#[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct UartErrors {
-    /// Overruns.
-    pub overruns: u32,
-    /// Framing, noise and parity errors.
-    pub line_errors: u32,
-    /// Reads on a disconnected port.
-    pub disconnected: u32,
-}
-
-impl UartErrors {
-    /// Counts one error.
-    pub fn count(&mut self, error: PortError) {
-        let counter = match error {
-            PortError::Overrun => &mut self.overruns,
-            PortError::LineError => &mut self.line_errors,
-            PortError::Disconnected | PortError::UnsupportedBaud => &mut self.disconnected,
-        };
-        *counter = counter.wrapping_add(1);
     }
 }
 

@@ -13,8 +13,7 @@ use embassy_futures::select::{Either3, select3};
 use embassy_time::{Duration, Instant, Timer};
 use protocol::{LinkCounters, Message};
 
-use super::gps::{DISCONNECTED_POLL, UartErrors};
-use super::port::{BaudRate, PortError, SerialRx, SerialTx};
+use super::port::{BaudRate, DISCONNECTED_POLL, PortError, SerialRx, SerialTx, UartErrors};
 use super::shared::{LaserRequest, Shared, Source};
 use crate::sick::{
     Action, Actions, BringUp, BringUpConfig, Event, Input, Receiver, ScanRepr, StreamingSetup,

@@ -1,6 +1,11 @@
 //! The serial ports the tasks talk through. The board implements them over embassy-stm32
 //! UARTs and USB; hil-sim implements them over pseudo-terminals; tests over byte buffers.
 
+use embassy_time::Duration;
+
+/// How long a task waits before reading again from a disconnected port.
+pub(crate) const DISCONNECTED_POLL: Duration = Duration::from_millis(50);
+
 /// Why a port operation failed. Receive errors are counted by the tasks and never stop them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -43,4 +48,27 @@ pub trait BaudRate {
     /// # Errors
     /// [`PortError::UnsupportedBaud`] if the UART cannot produce the rate.
     async fn set_baud(&mut self, baud: u32) -> Result<(), PortError>;
+}
+
+/// Receive errors reported by a port.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct UartErrors {
+    /// Overruns.
+    pub overruns: u32,
+    /// Framing, noise and parity errors.
+    pub line_errors: u32,
+    /// Reads on a disconnected port.
+    pub disconnected: u32,
+}
+
+impl UartErrors {
+    /// Counts one error.
+    pub fn count(&mut self, error: PortError) {
+        let counter = match error {
+            PortError::Overrun => &mut self.overruns,
+            PortError::LineError => &mut self.line_errors,
+            PortError::Disconnected | PortError::UnsupportedBaud => &mut self.disconnected,
+        };
+        *counter = counter.wrapping_add(1);
+    }
 }
