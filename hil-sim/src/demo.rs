@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use firmware::sick::BringUpConfig;
 use firmware::tasks::gps::GpsOptions;
-use host::link::{ClockSync, LinkReader};
-use protocol::{Encoder, GpsFixMsg, LaserState, MAX_WIRE_LEN, Message, StatusMsg, TimeSyncPingCmd};
+use host::link::{LinkReader, TimeSync};
+use protocol::{Encoder, GpsFixMsg, LaserState, MAX_WIRE_LEN, Message, StatusMsg};
 use serde::Serialize;
 use serialport::SerialPort;
 
@@ -221,14 +221,14 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
             + stats.truncated
             + stats.oversize,
         board_status: host.status,
-        clock_drift_ppm: host.clock.drift_ppm(),
+        clock_drift_ppm: host.sync.clock().drift_ppm(),
     })
 }
 
 /// What the host side saw.
 struct HostView {
     reader: LinkReader,
-    clock: ClockSync,
+    sync: TimeSync,
     status: Option<StatusMsg>,
     scans: u64,
     first_scan_s: Option<f64>,
@@ -256,7 +256,7 @@ fn read_host(
     let start = Instant::now();
     let mut view = HostView {
         reader: LinkReader::new(),
-        clock: ClockSync::default(),
+        sync: TimeSync::new(),
         status: None,
         scans: 0,
         first_scan_s: None,
@@ -269,7 +269,6 @@ fn read_host(
         last_fix: None,
     };
     let mut encoder = Encoder::new();
-    let mut pings: Vec<(u16, f64)> = Vec::new();
     let mut next_ping_s = 0.5;
     let mut last_state = None;
     let mut buf = [0u8; 8192];
@@ -281,10 +280,7 @@ fn read_host(
         if now_s >= next_ping_s {
             next_ping_s += 1.0;
             let mut out = [0u8; MAX_WIRE_LEN];
-            pings.push((encoder.next_seq(), now_s));
-            let ping = Message::TimeSyncPing(TimeSyncPingCmd {
-                host_time_us: (now_s * 1e6) as u64,
-            });
+            let ping = view.sync.ping(encoder.next_seq(), now_s);
             let frame = encoder
                 .encode(&ping, &mut out)
                 .map_err(|e| io::Error::other(e.to_string()))?;
@@ -297,6 +293,7 @@ fn read_host(
         };
         let recv_s = start.elapsed().as_secs_f64();
         for received in view.reader.feed(&buf[..n]) {
+            view.sync.observe(&received.message, recv_s);
             match received.message {
                 Message::Scan(scan) => {
                     view.scans += 1;
@@ -321,14 +318,6 @@ fn read_host(
                     }
                     last_state = Some(state);
                     view.status = Some(status);
-                }
-                Message::Heartbeat(hb) => view.clock.add_one_way(hb.uptime_us, recv_s),
-                Message::Ack(ack) => {
-                    if let Some(&(_, sent_s)) =
-                        pings.iter().find(|(seq, _)| *seq == ack.command_seq)
-                    {
-                        view.clock.add_round_trip(sent_s, ack.board_time_us, recv_s);
-                    }
                 }
                 _ => {}
             }

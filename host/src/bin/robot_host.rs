@@ -10,10 +10,10 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
-use host::link::{ClockSync, LinkReader};
+use host::link::{ClockSync, LinkReader, TimeSync};
 use protocol::{
     AngularResolution, ConfigureLaserCmd, Encoder, MAX_WIRE_LEN, Message, RangeUnit, Received,
-    ScanAngle, SetStreamingCmd, TimeSyncPingCmd,
+    ScanAngle, SetStreamingCmd,
 };
 use serde_json::json;
 
@@ -125,9 +125,8 @@ fn monitor(args: &MonitorArgs) -> io::Result<()> {
     let now_s = || start.elapsed().as_secs_f64();
     let mut port = open(args)?;
     let mut reader = LinkReader::new();
-    let mut clock = ClockSync::default();
+    let mut sync = TimeSync::new();
     let mut encoder = Encoder::new();
-    let mut pings: Vec<(u16, f64)> = Vec::new();
     let mut out = BufWriter::new(io::stdout().lock());
     let mut buf = [0u8; 4096];
     let mut next_ping_s = 0.0;
@@ -153,31 +152,16 @@ fn monitor(args: &MonitorArgs) -> io::Result<()> {
         }
         if now_s() >= next_ping_s {
             next_ping_s += 1.0;
-            let seq = encoder.next_seq();
-            let host_time_us = (now_s() * 1e6) as u64;
-            pings.push((seq, now_s()));
-            pings.retain(|(_, t)| now_s() - t < 5.0);
-            send(
-                port.as_mut(),
-                &mut encoder,
-                &Message::TimeSyncPing(TimeSyncPingCmd { host_time_us }),
-            )?;
+            let ping = sync.ping(encoder.next_seq(), now_s());
+            send(port.as_mut(), &mut encoder, &ping)?;
         }
         match port.read(&mut buf) {
             Ok(0) => {}
             Ok(n) => {
                 let recv_s = now_s();
                 for r in reader.feed(&buf[..n]) {
-                    if let Message::Ack(ack) = &r.message
-                        && let Some(&(_, sent_s)) =
-                            pings.iter().find(|(seq, _)| *seq == ack.command_seq)
-                    {
-                        clock.add_round_trip(sent_s, ack.board_time_us, recv_s);
-                    }
-                    if let Message::Heartbeat(hb) = &r.message {
-                        clock.add_one_way(hb.uptime_us, recv_s);
-                    }
-                    writeln!(out, "{}", describe(&r, &clock, args.scan_values))?;
+                    sync.observe(&r.message, recv_s);
+                    writeln!(out, "{}", describe(&r, sync.clock(), args.scan_values))?;
                 }
             }
             Err(e) if e.kind() == io::ErrorKind::TimedOut => {}
@@ -190,11 +174,11 @@ fn monitor(args: &MonitorArgs) -> io::Result<()> {
         if now_s() >= next_report_s {
             next_report_s += 1.0;
             out.flush()?;
-            report(&reader, &clock);
+            report(&reader, sync.clock());
         }
     }
     out.flush()?;
-    report(&reader, &clock);
+    report(&reader, sync.clock());
     Ok(())
 }
 
