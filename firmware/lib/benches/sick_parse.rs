@@ -6,33 +6,16 @@
 //! are present, otherwise a 361-value scan built with `ScanRepr::emit`. For instruction
 //! counts see `examples/parse_b0_callgrind.rs`.
 
+#[path = "common/b0_telegram.rs"]
+mod b0_telegram;
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use firmware::sick::{Event, Receiver, ScanRepr, Telegram, crc16};
-use protocol::RangeUnit;
-
-fn telegram_bytes() -> Vec<u8> {
-    let path = datasets::path("sick-real/dtu-usick-b0-361-mm.bin");
-    if let Ok(bytes) = std::fs::read(&path) {
-        return bytes;
-    }
-    eprintln!("{} not found; using a synthetic scan", path.display());
-    let scan = ScanRepr {
-        unit: RangeUnit::Mm,
-        partial_raster: None,
-        values: (0..361u16).map(|i| 1000 + i * 7).collect(),
-        indices: None,
-        status: 0x10,
-    };
-    let mut bytes = vec![0u8; scan.buffer_len()];
-    scan.emit(&mut Telegram::new_unchecked(&mut bytes[..]))
-        .expect("buffer_len bytes");
-    bytes
-}
 
 fn bench(c: &mut Criterion) {
-    let bytes = telegram_bytes();
+    let bytes = b0_telegram::telegram_bytes();
     let mut group = c.benchmark_group("sick_parse");
     group.throughput(Throughput::Bytes(bytes.len() as u64));
 

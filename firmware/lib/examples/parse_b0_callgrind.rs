@@ -11,36 +11,19 @@
 //! real capture `sick-real/dtu-usick-b0-361-mm.bin` when the datasets are present, otherwise
 //! a 361-value scan built with `ScanRepr::emit`.
 
+#[path = "../benches/common/b0_telegram.rs"]
+mod b0_telegram;
+
 use std::hint::black_box;
 
-use firmware::sick::{Event, Receiver, ScanRepr, Telegram};
-use protocol::RangeUnit;
-
-fn telegram_bytes() -> Vec<u8> {
-    let path = datasets::path("sick-real/dtu-usick-b0-361-mm.bin");
-    if let Ok(bytes) = std::fs::read(&path) {
-        return bytes;
-    }
-    eprintln!("{} not found; using a synthetic scan", path.display());
-    let scan = ScanRepr {
-        unit: RangeUnit::Mm,
-        partial_raster: None,
-        values: (0..361u16).map(|i| 1000 + i * 7).collect(),
-        indices: None,
-        status: 0x10,
-    };
-    let mut bytes = vec![0u8; scan.buffer_len()];
-    scan.emit(&mut Telegram::new_unchecked(&mut bytes[..]))
-        .expect("buffer_len bytes");
-    bytes
-}
+use firmware::sick::{Event, Receiver, ScanRepr};
 
 fn main() {
     let n: u32 = std::env::args()
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(1000);
-    let bytes = telegram_bytes();
+    let bytes = b0_telegram::telegram_bytes();
     let mut receiver = Receiver::new();
     let mut now_us = 0u64;
     let mut values = 0usize;
