@@ -124,24 +124,12 @@ impl Shared {
 
     /// Stores the laser link counters.
     pub fn set_laser_counters(&self, counters: LinkCounters) {
-        let dropped = self.laser.lock(Cell::get).dropped_frames;
-        self.laser.lock(|c| {
-            c.set(LinkCounters {
-                dropped_frames: dropped,
-                ..counters
-            })
-        });
+        store_receive_counters(&self.laser, counters);
     }
 
     /// Stores the GPS link counters.
     pub fn set_gps_counters(&self, counters: LinkCounters) {
-        let dropped = self.gps.lock(Cell::get).dropped_frames;
-        self.gps.lock(|c| {
-            c.set(LinkCounters {
-                dropped_frames: dropped,
-                ..counters
-            })
-        });
+        store_receive_counters(&self.gps, counters);
     }
 
     /// Changes the host link counters.
@@ -191,6 +179,16 @@ impl Shared {
             pps_edges: self.pps_edges().0,
         }
     }
+}
+
+/// Stores a receiving task's counters, keeping the drop count that [`Shared::post`] keeps.
+fn store_receive_counters(cell: &Shared_<LinkCounters>, counters: LinkCounters) {
+    update(cell, |c| {
+        *c = LinkCounters {
+            dropped_frames: c.dropped_frames,
+            ..counters
+        }
+    });
 }
 
 fn update(counters: &Shared_<LinkCounters>, f: impl FnOnce(&mut LinkCounters)) {
