@@ -64,4 +64,4 @@ pub use seq::SeqTracker;
 pub use status::{GpsState, LaserState, LinkCounters, StatusMsg};
 
 /// The protocol version this crate speaks. Frames with another version are skipped and counted.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;

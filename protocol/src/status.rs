@@ -18,6 +18,9 @@ pub struct LinkCounters {
     pub uart_overruns: u32,
     /// Whole frames dropped because the outgoing queue was full.
     pub dropped_frames: u32,
+    /// Units the sender sent that were not accepted, as far as the receiver can tell (laser:
+    /// scan periods in which bytes arrived but no valid scan; GPS: lines rejected).
+    pub missed: u32,
 }
 
 /// Where the laser bring-up stands.

@@ -20,24 +20,26 @@ fn unhex(s: &str) -> Vec<u8> {
 }
 
 const GOLDEN: &[&str] = &[
-    "030101010587ad4b2a0e640183800103e807d00fff3f1005c4e30e6500", // Scan
-    "0401020105c096b10228475001e80f0309010c2313a0c21e0101c0ec9dc0e602d68c93e75501f0c94201e8dc050108015a0102010101010701b0090184070523b2030100", // GpsFix
-    "0401020208809bee0201474e0101010101010101010105fd372c4e00", // GpsFix, no fix
-    "040103031f07182447504747412c2c2c2c2c2c302c2c2c2c2c2c2c2c2a3636d5a553c800", // Nmea
-    "040104040b80ade204f0bb046401020503bc050a0101010101010101010b03a0c21e02095e35d28900", // Status
-    "040105050605fb183dba00",                                   // Heartbeat
-    "040106061701020f6c6173657220726573746172746564ef61fa5f00", // Log
-    "0401070703034409e807e707a1c54a1000",                       // Ack
-    "0401410808010101222db1a000",                               // ConfigureLaser
-    "040142090601024589b200",                                   // SetStreaming
-    "0401430a056a63cb1100",                                     // RequestStatus
-    "0401440b07e70706fbb78f00",                                 // TimeSyncPing
+    "030201010587ad4b2a0e640183800103e807d00fff3f1005f9daeb1300", // Scan
+    "0402020105c096b10228475001e80f0309010c2313a0c21e0101c0ec9dc0e602d68c93e75501f0c94201e8dc050108015a0102010101010701b00901840704f2945e0100", // GpsFix
+    "0402020208809bee0201474e0101010101010101010105bd9a547700", // GpsFix, no fix
+    "040203031f07182447504747412c2c2c2c2c2c302c2c2c2c2c2c2c2c2a3636cd80f28c00", // Nmea
+    "040204040b80ade204f0bb04640102060304bc050a01010101010101010101010b03a0c21e02096cea6f1d00", // Status
+    "0402050506052b629dfd00",                                   // Heartbeat
+    "040206061701020f6c6173657220726573746172746564afcc826600", // Log
+    "0402070703034409e807e707a0a3a88900",                       // Ack
+    "0402410808010101bf37599100",                               // ConfigureLaser
+    "040242090601d23f29f500",                                   // SetStreaming
+    "0402430a0584cc7e0300",                                     // RequestStatus
+    "0402440b07e707a889230900",                                 // TimeSyncPing
+    "0402080c0980897a026c30495b00",                             // Pps
 ];
 
 #[test]
 fn test_emit() {
     let mut enc = Encoder::new();
     let mut out = [0u8; MAX_WIRE_LEN];
+    assert_eq!(samples::all().len(), GOLDEN.len());
     for (m, golden) in samples::all().iter().zip(GOLDEN) {
         assert_eq!(
             hex(enc.encode(m, &mut out).unwrap()),
@@ -69,7 +71,7 @@ fn test_parse() {
 
 #[test]
 fn test_deconstruct() {
-    // The heartbeat, by hand: COBS block [01 05 05], block [05 fb 18 3d ba], delimiter.
+    // The heartbeat, by hand: COBS block [02 05 05], block [05 2b 62 9d fd], delimiter.
     let mut raw = unhex(GOLDEN[5]);
     raw.pop();
     let n = cobs::decode_in_place(&mut raw).unwrap();
@@ -78,7 +80,7 @@ fn test_deconstruct() {
     assert_eq!(frame.kind(), Kind::Heartbeat);
     assert_eq!(frame.seq(), 5);
     assert_eq!(frame.payload(), &[0x05]);
-    assert_eq!(frame.crc(), 0xba3d_18fb);
+    assert_eq!(frame.crc(), 0xfd9d_622b);
     assert!(frame.check_crc().is_ok());
     assert_eq!(
         Message::parse(&frame),

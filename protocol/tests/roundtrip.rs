@@ -136,13 +136,14 @@ fn gps_fix() -> impl Strategy<Value = GpsFixMsg> {
 }
 
 fn counters() -> impl Strategy<Value = LinkCounters> {
-    any::<[u32; 6]>().prop_map(|c| LinkCounters {
+    any::<[u32; 7]>().prop_map(|c| LinkCounters {
         bytes: c[0],
         telegrams: c[1],
         crc_errors: c[2],
         resyncs: c[3],
         uart_overruns: c[4],
         dropped_frames: c[5],
+        missed: c[6],
     })
 }
 

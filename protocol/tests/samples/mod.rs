@@ -89,6 +89,7 @@ pub fn status() -> StatusMsg {
             resyncs: 2,
             uart_overruns: 0,
             dropped_frames: 3,
+            missed: 4,
         },
         gps: LinkCounters {
             bytes: 700,

@@ -9,7 +9,8 @@
 //! * [`command`]: host requests ([`Request`], §6); [`reply`] and [`status_reply`]: the
 //!   sensor's replies ([`Reply`], [`StatusReply`]); [`config`]: the configuration block.
 //! * [`receiver`]: the byte-level [`Receiver`] that validates telegrams, recognises ACK/NAK
-//!   and resynchronises after errors (§10).
+//!   and resynchronises after errors (§10); [`slots`]: [`ScanSlots`], which counts the scans
+//!   a streaming sensor sent that did not arrive intact.
 //! * [`bringup`]: the sans-IO [`BringUp`] state machine: baud detection, configuration,
 //!   variant, baud switch, streaming (§6.5), with retries and recovery.
 //!
@@ -26,6 +27,7 @@ pub mod range;
 pub mod receiver;
 pub mod reply;
 pub mod scan;
+pub mod slots;
 pub mod status_reply;
 pub mod telegram;
 
@@ -43,5 +45,6 @@ pub use range::{MeasuringMode, RangeDecoder};
 pub use receiver::{Event, Receiver, ReceiverStats};
 pub use reply::Reply;
 pub use scan::ScanRepr;
+pub use slots::ScanSlots;
 pub use status_reply::StatusReply;
 pub use telegram::{MAX_LEN_FIELD, MAX_TELEGRAM_LEN, STX, Telegram};

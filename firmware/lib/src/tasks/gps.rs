@@ -74,6 +74,12 @@ pub async fn run<P: SerialRx>(mut port: P, shared: &Shared, options: GpsOptions)
                 .wrapping_add(s.malformed),
             uart_overruns: uart.overruns,
             dropped_frames: 0,
+            missed: s
+                .bad_checksum
+                .wrapping_add(s.missing_checksum)
+                .wrapping_add(s.truncated)
+                .wrapping_add(s.too_long)
+                .wrapping_add(s.non_printable),
         });
     }
 }

@@ -16,7 +16,8 @@ use protocol::{LinkCounters, Message};
 use super::port::{BaudRate, DISCONNECTED_POLL, PortError, SerialRx, SerialTx, UartErrors};
 use super::shared::{LaserRequest, Shared, Source};
 use crate::sick::{
-    Action, Actions, BringUp, BringUpConfig, Event, Input, Receiver, ScanRepr, StreamingSetup,
+    Action, Actions, BringUp, BringUpConfig, Event, Input, Receiver, ScanRepr, ScanSlots,
+    StreamingSetup,
 };
 
 /// The `B0h` measured-value reply code.
@@ -37,6 +38,7 @@ pub async fn run<P: SerialRx + SerialTx + BaudRate>(
         setup: None,
         baud: 9_600,
         scans: 0,
+        slots: ScanSlots::new(),
         last_stamp_us: 0,
         uart: UartErrors::default(),
     };
@@ -92,6 +94,8 @@ struct Lidar<'s, P> {
     baud: u32,
     /// Valid scans received since boot.
     scans: u32,
+    /// Scans the sensor sent that did not arrive intact.
+    slots: ScanSlots,
     /// Estimated arrival of the last byte read, µs.
     last_stamp_us: u64,
     uart: UartErrors,
@@ -119,12 +123,14 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
                 .saturating_sub((last - i as u64) * char_us)
                 .max(self.last_stamp_us);
             self.last_stamp_us = stamp_us;
+            self.slots.on_byte(stamp_us);
             let actions = match self.receiver.push(byte, stamp_us) {
                 Some(event) => handle_event(
                     &mut self.bringup,
                     self.shared,
                     self.setup,
                     &mut self.scans,
+                    &mut self.slots,
                     event,
                 ),
                 None => continue,
@@ -159,6 +165,7 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
                     self.shared,
                     self.setup,
                     &mut self.scans,
+                    &mut self.slots,
                     event,
                 ),
                 None => return,
@@ -185,8 +192,15 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
                     self.deadline =
                         Some(Instant::now() + Duration::from_millis(u64::from(duration_ms)));
                 }
-                Action::Streaming(setup) => self.setup = Some(setup),
-                Action::StreamingStopped | Action::Failed => self.setup = None,
+                Action::Streaming(setup) => {
+                    self.slots
+                        .start(setup.values_per_scan, setup.step_angle_cdeg, self.baud);
+                    self.setup = Some(setup);
+                }
+                Action::StreamingStopped | Action::Failed => {
+                    self.slots.end();
+                    self.setup = None;
+                }
                 Action::Rejected(_) => {}
             }
         }
@@ -202,6 +216,7 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
             resyncs: s.resyncs,
             uart_overruns: self.uart.overruns,
             dropped_frames: 0,
+            missed: self.slots.missed(),
         });
     }
 }
@@ -212,6 +227,7 @@ fn handle_event(
     shared: &Shared,
     setup: Option<StreamingSetup>,
     scans: &mut u32,
+    slots: &mut ScanSlots,
     event: Event<'_>,
 ) -> Actions {
     if let Event::Telegram { telegram, stamp_us } = &event
@@ -220,6 +236,7 @@ fn handle_event(
         && let Ok(scan) = ScanRepr::parse(telegram)
     {
         *scans = scans.wrapping_add(1);
+        slots.on_scan(*stamp_us);
         let msg = scan.to_msg(
             *stamp_us,
             *scans,

@@ -73,6 +73,7 @@ const ZERO: LinkCounters = LinkCounters {
     resyncs: 0,
     uart_overruns: 0,
     dropped_frames: 0,
+    missed: 0,
 };
 
 impl Shared {
