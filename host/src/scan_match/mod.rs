@@ -1,0 +1,36 @@
+//! Laser scan matching by raster overlap.
+//!
+//! A new scan is aligned with a reference scan by trying every transform of a table of
+//! translations × rotations around a guess: both scans are drawn as polylines into a small
+//! raster and the transform whose drawing covers the fewest pixels (the best overlap) wins. The
+//! method was first run on graphics hardware (draw both scans, count the pixels); here it runs in
+//! software.
+//!
+//! * [`search`]: the shared contract: raster, candidate table and its pixel quantisation,
+//!   drawing rules, score, tie-break, [`MatchResult`] and the [`ScanMatcher`] trait.
+//! * [`ReferenceMatcher`]: the method as stated, one raster per candidate. It defines the answer.
+//! * [`FastMatcher`]: exactly the same answer by branch and bound over bit-packed, max-pooled
+//!   rasters.
+//! * [`match_incremental`]: the new pose `P_new = P_old * M` from a match.
+//! * [`Scan`], [`Pose2`]: the inputs, in the robot frame (x forward, y left, theta CCW).
+//! * [`synthetic`]: scans cast in a world of walls, for tests and benchmarks.
+
+mod bit_grid;
+mod bresenham;
+mod fast_matcher;
+mod incremental;
+mod pose;
+mod precomputation_grid;
+mod reference_matcher;
+mod rotated_scan;
+mod scan;
+pub mod search;
+pub mod synthetic;
+
+pub use bresenham::BresenhamLine;
+pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH};
+pub use incremental::{IncrementalMatch, match_incremental};
+pub use pose::Pose2;
+pub use reference_matcher::ReferenceMatcher;
+pub use scan::Scan;
+pub use search::{Candidate, MatchResult, RasterOptions, ScanMatchError, ScanMatcher, SearchTable};

@@ -1,0 +1,141 @@
+//! The new scan drawn once for one rotation, ready to slide by whole-pixel table offsets.
+//!
+//! Because candidate translations are whole-pixel offsets of the same vertex pixels, and
+//! Bresenham lines shift exactly with their end points, the drawing of candidate
+//! (rotation, x, y) is this drawing shifted by the candidate's offset and clipped to the raster.
+//! The drawing is kept on a raster enlarged by the table's largest offset on every side: pixels
+//! beyond that can never land in the raster for any candidate, so dropping them changes nothing.
+
+use super::bit_grid::BitGrid;
+use super::search::{Polyline, RasterOptions};
+
+/// One rotation's drawing of the new scan on the enlarged raster.
+#[derive(Clone, Debug)]
+pub(crate) struct RotatedScan {
+    /// Enlarged raster: column `c` here is raster column `c - margin_px[0]`, likewise rows.
+    grid: BitGrid,
+    margin_px: [usize; 2],
+    /// Rows of `grid` with at least one set pixel, ascending.
+    occupied_rows: Vec<usize>,
+}
+
+impl RotatedScan {
+    /// Draws `polyline` with vertices `vertices_px` (raster pixels, no table offset) on the
+    /// raster of `raster` enlarged by `margin_px` (the table's largest offset) on each side.
+    pub(crate) fn new(
+        polyline: &Polyline,
+        vertices_px: &[Option<[i32; 2]>],
+        raster: &RasterOptions,
+        margin_px: [usize; 2],
+    ) -> Self {
+        let width = raster.width_px as usize + 2 * margin_px[0];
+        let height = raster.height_px as usize + 2 * margin_px[1];
+        // One spare word so that a window of `words_per_row + 1` words starting at any allowed
+        // offset stays inside the row: `ceil((W + 2m) / 64) >= ceil(W / 64) + floor(2m / 64)`.
+        let mut grid = BitGrid::new(width, height, 1);
+        let margin = margin_px.map(|m| m as i64);
+        polyline.draw(vertices_px, [0, 0], |[column, row]| {
+            let column = i64::from(column) + margin[0];
+            let row = i64::from(row) + margin[1];
+            if (0..width as i64).contains(&column) && (0..height as i64).contains(&row) {
+                grid.set(column as usize, row as usize);
+            }
+        });
+        let occupied_rows = (0..height)
+            .filter(|&row| grid.row(row).iter().any(|&w| w != 0))
+            .collect();
+        RotatedScan {
+            grid,
+            margin_px,
+            occupied_rows,
+        }
+    }
+
+    /// Number of pixels of this drawing, shifted by `offset_px`, that land inside the raster on
+    /// a pixel that is not set in `blocked` (a raster-size grid whose padding bits are set).
+    ///
+    /// With `blocked` the reference drawing, this is what the candidate adds to the union; with
+    /// a max-pooled level it is a lower bound over a block of candidates.
+    ///
+    /// `offset_px` must lie within the margins given to [`RotatedScan::new`].
+    pub(crate) fn uncovered_px(&self, blocked: &BitGrid, offset_px: [i32; 2]) -> u32 {
+        let first_column = self.margin_px[0] as i64 - i64::from(offset_px[0]);
+        let first_row = self.margin_px[1] as i64 - i64::from(offset_px[1]);
+        debug_assert!(first_column >= 0 && first_column <= 2 * self.margin_px[0] as i64);
+        debug_assert!(first_row >= 0 && first_row <= 2 * self.margin_px[1] as i64);
+        let first_column = first_column as usize;
+        let first_row = first_row as usize;
+        let end_row = first_row + blocked.height_px();
+
+        let start = self.occupied_rows.partition_point(|&r| r < first_row);
+        let end = self.occupied_rows.partition_point(|&r| r < end_row);
+        // Each output word funnels two neighbouring source words; the split is the same for
+        // the whole call. `(high << 1) << (63 - shift)` is `high << (64 - shift)` and vanishes
+        // for a zero shift without a branch.
+        let first_word = first_column / 64;
+        let shift = (first_column % 64) as u32;
+        let words = blocked.words_per_row();
+        let mut uncovered = 0;
+        for &row in &self.occupied_rows[start..end] {
+            // The spare word of `grid` keeps this window inside the row (see `new`).
+            let source = &self.grid.row(row)[first_word..first_word + words + 1];
+            let blocked_row = blocked.row(row - first_row);
+            for (pair, &blocked_word) in source.windows(2).zip(blocked_row) {
+                let word = (pair[0] >> shift) | ((pair[1] << 1) << (63 - shift));
+                uncovered += (word & !blocked_word).count_ones();
+            }
+        }
+        uncovered
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::pose::Pose2;
+    use crate::scan_match::scan::Scan;
+
+    #[test]
+    fn test_uncovered_matches_direct_drawing() {
+        let raster = RasterOptions {
+            resolution_m: 0.1,
+            width_px: 70,
+            height_px: 40,
+            max_gap_m: 1.0,
+        };
+        let scan = Scan::from_points_in_robot(vec![
+            Some([-3.3, -1.9]),
+            Some([-2.5, -1.0]),
+            Some([3.4, 1.9]),
+            None,
+            Some([0.05, 0.05]),
+            Some([0.5, 0.0]),
+        ]);
+        let polyline = Polyline::new(&scan, raster.max_gap_m);
+        let vertices = polyline.vertices_px(Pose2::IDENTITY, &raster);
+        let margin = [5, 3];
+        let rotated = RotatedScan::new(&polyline, &vertices, &raster, margin);
+
+        let mut blocked = BitGrid::new(70, 40, 0);
+        for column in 30..40 {
+            blocked.set(column, 20);
+        }
+        blocked.fill_padding();
+        for dx in -5..=5 {
+            for dy in -3..=3 {
+                let mut expected = std::collections::HashSet::new();
+                polyline.draw(&vertices, [dx, dy], |[c, r]| {
+                    let inside = (0..70).contains(&c) && (0..40).contains(&r);
+                    if inside && !blocked.get(c as usize, r as usize) {
+                        expected.insert([c, r]);
+                    }
+                });
+                assert_eq!(
+                    rotated.uncovered_px(&blocked, [dx, dy]) as usize,
+                    expected.len(),
+                    "offset ({dx}, {dy})"
+                );
+            }
+        }
+    }
+}
