@@ -8,16 +8,38 @@
 //! * [`Shape`] ([`shape`]): segments and circles, each intersected exactly with a ray.
 //! * [`Room`] ([`room`]): a world made of shapes, with a built-in default room.
 //! * [`GeoDatum`] ([`geo`]): local east/north metres to latitude/longitude, for GNSS emulators.
+//! * [`ShapeWorld`] ([`shape_world`]): many shapes behind a grid index, for large worlds.
+//! * [`Scenario`] ([`scenario`]): a seeded world ([`indoor`] office floor or [`outdoor`]
+//!   park, each a [`Layout`] with [`Landmark`]s and a [`Route`]) and the robot's true
+//!   [`Trajectory`] of [`RobotState`]s round it, driven by [`PurePursuit`].
 
 pub mod geo;
+pub mod indoor;
+pub mod landmark;
+pub mod layout;
+pub mod outdoor;
 pub mod pose;
+pub mod pure_pursuit;
+pub mod robot_state;
 pub mod room;
+pub mod route;
+pub mod scenario;
 pub mod shape;
+pub mod shape_world;
+pub mod trajectory;
 
 pub use geo::GeoDatum;
+pub use landmark::Landmark;
+pub use layout::Layout;
 pub use pose::SensorPose;
+pub use pure_pursuit::PurePursuit;
+pub use robot_state::RobotState;
 pub use room::Room;
+pub use route::Route;
+pub use scenario::{ParseWorldKindError, Scenario, WorldKind};
 pub use shape::Shape;
+pub use shape_world::ShapeWorld;
+pub use trajectory::Trajectory;
 
 /// Something rays can be cast into.
 pub trait World {
