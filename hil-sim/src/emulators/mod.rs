@@ -5,7 +5,8 @@
 //!
 //! * [`Lms2xx`] ([`lms2xx`]): a SICK LMS200 over RS-232/RS-422, byte-exact, with its
 //!   timing, baud switching, streaming and scan skipping; its scan geometry is
-//!   [`Variant`] ([`lms_variant`]) and its measurement [`RangeModel`] ([`range_model`]).
+//!   [`Variant`] ([`lms_variant`]) and its measurement [`RangeModel`] ([`range_model`]);
+//!   it can stream recorded scans instead ([`ScanSource`], fed by [`crate::replay`]).
 //! * [`GpsEmulator`] ([`gps`]): an NMEA 0183 GNSS receiver with noise, outages and no-fix
 //!   periods; [`utc`] turns its clock into UTC date and time.
 //! * [`TxLine`] ([`tx_line`]): when each byte leaves a UART; [`garble`] ([`baud_mismatch`]):
@@ -22,6 +23,9 @@ pub mod utc;
 pub use baud_mismatch::garble;
 pub use gps::{GpsCounters, GpsEmulator, GpsEmulatorOptions, GpsTruth, Trajectory};
 pub use lms_variant::Variant;
-pub use lms2xx::{Lms2xx, Lms2xxCounters, Lms2xxOptions, Lms2xxTiming};
+pub use lms2xx::{
+    BeamMapping, Lms2xx, Lms2xxCounters, Lms2xxOptions, Lms2xxTiming, RecordedScan, ReplayPace,
+    ReplayProgress, ScanSource, recorded_words,
+};
 pub use range_model::RangeModel;
 pub use tx_line::{TxLine, TxRun};
