@@ -43,7 +43,7 @@ fn receiver_log_arrives_at_the_host_intact() {
     let laser = PtyLink::open().unwrap();
     let mut gps = PtyLink::open().unwrap();
     let mut host = PtyLink::open().unwrap();
-    let shared = board::spawn(BoardConfig {
+    let board = board::spawn(BoardConfig {
         laser_path: laser.board_path().into(),
         gps_path: gps.board_path().into(),
         host_path: host.board_path().into(),
@@ -83,13 +83,14 @@ fn receiver_log_arrives_at_the_host_intact() {
     // The task may still be reading the sentences after the last fix.
     let sent_bytes = lines.iter().map(|l| l.len()).sum::<usize>();
     for _ in 0..100 {
-        if shared.status(0).gps.bytes as usize == sent_bytes {
+        if board.shared.status(0).gps.bytes as usize == sent_bytes {
             break;
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let status = shared.status(0);
+    let status = board.shared.status(0);
     assert_eq!(status.gps.dropped_frames, 0);
     assert_eq!(status.gps.bytes as usize, sent_bytes);
+    board.stop();
     drop(laser);
 }

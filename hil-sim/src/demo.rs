@@ -141,7 +141,7 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
         ..GpsEmulatorOptions::default()
     };
     let gps_baud = gps_options.baud;
-    let shared = board::spawn(BoardConfig {
+    let board = board::spawn(BoardConfig {
         laser_path: laser_link.board_path().into(),
         gps_path: gps_link.board_path().into(),
         host_path: host_link.board_path().into(),
@@ -170,7 +170,7 @@ pub fn run(options: DemoOptions) -> io::Result<DemoReport> {
         devices::spawn_gps_with(gps_link, gps, stop.clone(), GpsDeviceOptions::default());
 
     let host = read_host(&mut host_link.device, &options, &stop)?;
-    let _ = shared;
+    board.stop();
 
     let lms = lms_thread
         .join()

@@ -12,6 +12,8 @@
 use std::fs::{File, OpenOptions};
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use async_io::Async;
 use firmware::tasks::{BaudRate, PortError, SerialRx, SerialTx};
@@ -60,10 +62,38 @@ impl PtyLink {
     }
 }
 
-/// The board end of a pty as the firmware tasks see a UART.
+/// What went through a [`BoardPort`] (both halves of a split port count together).
+#[derive(Debug, Default)]
+pub struct PortCounters {
+    read: AtomicU64,
+    written: AtomicU64,
+    writing: AtomicBool,
+}
+
+impl PortCounters {
+    /// Bytes the board has read.
+    pub fn read(&self) -> u64 {
+        self.read.load(Ordering::SeqCst)
+    }
+
+    /// Bytes the board has written.
+    pub fn written(&self) -> u64 {
+        self.written.load(Ordering::SeqCst)
+    }
+
+    /// Whether a write has not completed yet (it waits for room in the device).
+    pub fn writing(&self) -> bool {
+        self.writing.load(Ordering::SeqCst)
+    }
+}
+
+/// The board end of a pty as the firmware tasks see a UART. It counts the bytes it moves
+/// ([`PortCounters`]), so a simulation can tell when the board has read everything sent to
+/// it.
 pub struct BoardPort {
     io: Async<File>,
     termios: TTYPort,
+    counters: Arc<PortCounters>,
 }
 
 impl BoardPort {
@@ -81,7 +111,13 @@ impl BoardPort {
         Ok(BoardPort {
             io: Async::new(file)?,
             termios,
+            counters: Arc::default(),
         })
+    }
+
+    /// The port's byte counters.
+    pub fn counters(&self) -> Arc<PortCounters> {
+        Arc::clone(&self.counters)
     }
 
     /// Splits into a receiving and a transmitting half sharing the device.
@@ -95,6 +131,7 @@ impl BoardPort {
             BoardPort {
                 io: Async::new(file)?,
                 termios,
+                counters: Arc::clone(&self.counters),
             },
             self,
         ))
@@ -105,17 +142,48 @@ impl SerialRx for BoardPort {
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, PortError> {
         match self.io.read(buf).await {
             Ok(0) | Err(_) => Err(PortError::Disconnected),
-            Ok(n) => Ok(n),
+            Ok(n) => {
+                self.counters.read.fetch_add(n as u64, Ordering::SeqCst);
+                Ok(n)
+            }
         }
+    }
+}
+
+/// Marks a write in progress for as long as it lives, even if the write is abandoned.
+struct Writing<'a>(&'a AtomicBool);
+
+impl<'a> Writing<'a> {
+    fn new(flag: &'a AtomicBool) -> Self {
+        flag.store(true, Ordering::SeqCst);
+        Writing(flag)
+    }
+}
+
+impl Drop for Writing<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, Ordering::SeqCst);
     }
 }
 
 impl SerialTx for BoardPort {
     async fn write_all(&mut self, bytes: &[u8]) -> Result<(), PortError> {
-        self.io
-            .write_all(bytes)
-            .await
-            .map_err(|_| PortError::Disconnected)
+        let _writing = Writing::new(&self.counters.writing);
+        let mut result = Ok(());
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            match self.io.write(rest).await {
+                Ok(0) | Err(_) => {
+                    result = Err(PortError::Disconnected);
+                    break;
+                }
+                Ok(n) => {
+                    self.counters.written.fetch_add(n as u64, Ordering::SeqCst);
+                    rest = rest.get(n..).unwrap_or(&[]);
+                }
+            }
+        }
+        result
     }
 }
 

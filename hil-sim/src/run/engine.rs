@@ -1,0 +1,536 @@
+//! The lock-step loop that runs emulated sensors, the firmware and the host together on one
+//! virtual clock.
+//!
+//! Each step at virtual time `t`:
+//!
+//! 1. **Settle**: move every byte the board wrote to its reader (commands to the laser
+//!    emulator, frames to the host) and wait until the firmware has read every byte written
+//!    to it and its executor is idle, with no timer due. Nothing else can then happen at `t`.
+//! 2. **Emit**: carry out the fault events due (power cycle, GPS outage, unplugged link), give
+//!    the emulators the robot's true pose, and write what they sent by `t` — split into
+//!    telegrams by a [`TelegramTap`], garbled when sent at another baud rate than the board
+//!    listens at, then damaged by the byte faults. If anything was written, settle again.
+//! 3. **Advance** to the next event: an emulator's next output (at most every
+//!    [`QUANTUM_US`], so bytes arrive in chunks, as from a UART FIFO), a firmware timer, a
+//!    host ping, a fault, the end.
+//!
+//! The firmware sees the same bytes at the same virtual times whatever the host's speed, so a
+//! run is reproducible to the byte; `realtime` only waits for the wall clock before each step.
+
+use std::io::{self, Read, Write};
+use std::time::{Duration, Instant};
+
+use firmware::sick::{ScanRepr, Telegram};
+use serialport::{SerialPort, TTYPort};
+
+use super::host_side::{HostSide, SentScan};
+use super::tap::{Segment, TelegramTap};
+use crate::board::Board;
+use crate::emulators::{GpsEmulator, GpsTruth, Lms2xx, garble};
+use crate::faults::{ByteFaults, FaultSpec};
+use crate::pty::{PortCounters, PtyLink};
+use crate::sim_time::VirtualClock;
+use crate::world::{RobotState, Trajectory, World};
+
+/// Emulator output is delivered in chunks at least this far apart, µs.
+pub const QUANTUM_US: u64 = 1_000;
+/// The longest step when nothing is scheduled, µs.
+const MAX_STEP_US: u64 = 10_000;
+/// Time-sync pings, one every this many µs.
+const PING_PERIOD_US: u64 = 1_000_000;
+/// After the sensors stop: how long the firmware and host drain, µs.
+const DRAIN_US: u64 = 200_000;
+/// How long to wait for the final status report, µs.
+const STATUS_WAIT_US: u64 = 500_000;
+/// How long an unplugged host link stays unplugged, µs.
+pub const UNPLUGGED_US: u64 = 300_000;
+/// A settle that makes no progress for this long means the firmware hangs.
+const SETTLE_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// One end of a serial line that the simulation drives, with what it moved.
+pub struct Endpoint {
+    /// The device (pty master) end.
+    pub link: PtyLink,
+    /// The board's counters for its end.
+    pub board: std::sync::Arc<PortCounters>,
+    written: u64,
+    read: u64,
+}
+
+impl Endpoint {
+    /// An endpoint on `link` whose other end the board counts in `board`.
+    pub fn new(link: PtyLink, board: std::sync::Arc<PortCounters>) -> Endpoint {
+        Endpoint {
+            link,
+            board,
+            written: 0,
+            read: 0,
+        }
+    }
+
+    /// Reads what is there without waiting.
+    fn read_available(&mut self) -> io::Result<Vec<u8>> {
+        let mut out = Vec::new();
+        let mut buf = [0u8; 4096];
+        self.link
+            .device
+            .set_timeout(Duration::ZERO)
+            .map_err(io::Error::other)?;
+        loop {
+            match self.link.device.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => out.extend_from_slice(&buf[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
+                    ) =>
+                {
+                    break;
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+        self.read += out.len() as u64;
+        Ok(out)
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> io::Result<()> {
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        self.link
+            .device
+            .set_timeout(SETTLE_TIMEOUT)
+            .map_err(io::Error::other)?;
+        self.link.device.write_all(bytes)?;
+        self.written += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Whether the board has read everything written to it and everything it wrote was read.
+    fn balanced(&self) -> bool {
+        self.board.read() == self.written
+            && self.board.written() == self.read
+            && !self.board.writing()
+    }
+
+    fn board_baud(&self) -> io::Result<u32> {
+        self.link.board_baud()
+    }
+}
+
+/// What the fault events did.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct EventsInjected {
+    /// Laser power cycles.
+    pub laser_restarts: u32,
+    /// GPS outages begun.
+    pub gps_outages: u32,
+    /// Host link unplugs.
+    pub link_replugs: u32,
+}
+
+/// The sensors' side of a run.
+pub struct Sensors<W: World> {
+    /// The laser.
+    pub lms: Lms2xx<W>,
+    /// The GPS receiver, `None` when the world has no sky (indoors it has no fix).
+    pub gps: GpsEmulator,
+    /// The robot's true motion.
+    pub trajectory: Trajectory,
+    /// Whether the GPS can see satellites at all.
+    pub gps_has_sky: bool,
+}
+
+/// Counts of what the sensors sent.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SentCounts {
+    /// Scan telegrams that left the laser (whole or cut by a power cycle).
+    pub scan_telegrams: u64,
+    /// Of those, cut by a power cycle.
+    pub scan_telegrams_cut: u64,
+}
+
+/// Everything a lock-step run holds.
+pub struct Engine<'c, W: World> {
+    clock: &'c VirtualClock,
+    board: Board,
+    laser: Endpoint,
+    gps_end: Endpoint,
+    host_end: Endpoint,
+    sensors: Sensors<W>,
+    tap: TelegramTap,
+    laser_faults: ByteFaults,
+    gps_faults: ByteFaults,
+    faults: FaultSpec,
+    /// The host.
+    pub host: HostSide,
+    /// What the sensors sent.
+    pub sent: SentCounts,
+    /// What the fault events did.
+    pub events: EventsInjected,
+    next_restart: usize,
+    next_replug: usize,
+    unplugged_until_us: Option<u64>,
+    in_outage: bool,
+    next_ping_us: u64,
+    realtime: Option<Instant>,
+}
+
+/// Where a run stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Running,
+    Draining { until_us: u64 },
+    AwaitingStatus { asked_us: u64 },
+}
+
+impl<'c, W: World> Engine<'c, W> {
+    /// Assembles a run; nothing happens until [`Self::run`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        clock: &'c VirtualClock,
+        board: Board,
+        (laser, gps_end, host_end): (Endpoint, Endpoint, Endpoint),
+        sensors: Sensors<W>,
+        faults: FaultSpec,
+        seed: u64,
+        host: HostSide,
+        realtime: bool,
+    ) -> Self {
+        Engine {
+            clock,
+            board,
+            laser,
+            gps_end,
+            host_end,
+            sensors,
+            tap: TelegramTap::new(),
+            laser_faults: ByteFaults::new(&faults, seed ^ 0x1A5E_0001),
+            gps_faults: ByteFaults::new(
+                &FaultSpec {
+                    truncate: 0.0,
+                    ..faults.clone()
+                },
+                seed ^ 0x0695_0002,
+            ),
+            faults,
+            host,
+            sent: SentCounts::default(),
+            events: EventsInjected::default(),
+            next_restart: 0,
+            next_replug: 0,
+            unplugged_until_us: None,
+            in_outage: false,
+            next_ping_us: PING_PERIOD_US / 2,
+            realtime: realtime.then(Instant::now),
+        }
+    }
+
+    /// What the byte faults did to the laser and GPS streams.
+    pub fn injected(&self) -> (crate::faults::InjectedFaults, crate::faults::InjectedFaults) {
+        (*self.laser_faults.injected(), *self.gps_faults.injected())
+    }
+
+    /// The emulators, for their counters.
+    pub fn sensors(&self) -> &Sensors<W> {
+        &self.sensors
+    }
+
+    /// The firmware instance.
+    pub fn board(&self) -> &Board {
+        &self.board
+    }
+
+    /// Runs for `duration_us` of virtual time, then drains and asks the board for its final
+    /// status.
+    ///
+    /// # Errors
+    /// When a port fails or the firmware stops reacting.
+    pub fn run(&mut self, duration_us: u64) -> io::Result<()> {
+        let mut t_us = 0;
+        let mut phase = Phase::Running;
+        loop {
+            self.settle(t_us)?;
+            let wrote = match phase {
+                Phase::Running => self.emit(t_us)?,
+                _ => false,
+            };
+            if wrote {
+                continue;
+            }
+            if self.host_actions(t_us, phase)? {
+                continue;
+            }
+            match phase {
+                Phase::Running if t_us >= duration_us && !self.tap.in_telegram() => {
+                    phase = Phase::Draining {
+                        until_us: t_us + DRAIN_US,
+                    };
+                }
+                Phase::Draining { until_us } if t_us >= until_us => {
+                    let request = self.host.status_request();
+                    self.host_end.write(&request)?;
+                    phase = Phase::AwaitingStatus { asked_us: t_us };
+                    continue;
+                }
+                Phase::AwaitingStatus { asked_us } => {
+                    let answered = self.host.status.is_some_and(|s| s.uptime_us >= asked_us);
+                    if answered || t_us >= asked_us + STATUS_WAIT_US {
+                        return Ok(());
+                    }
+                }
+                _ => {}
+            }
+            let next_us = self.next_event_us(t_us, phase, duration_us);
+            if let Some(start) = self.realtime {
+                let due = start + Duration::from_micros(next_us);
+                if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                    std::thread::sleep(wait);
+                }
+            }
+            self.clock.advance_to(next_us);
+            t_us = next_us;
+        }
+    }
+
+    /// Moves bytes until the firmware has reacted to everything at `t_us`.
+    fn settle(&mut self, t_us: u64) -> io::Result<()> {
+        let mut last_progress = Instant::now();
+        loop {
+            let moved = self.pump(t_us)?;
+            let timer_due = self.clock.next_timer_us().is_some_and(|at| at <= t_us);
+            if moved || timer_due {
+                last_progress = Instant::now();
+                continue;
+            }
+            if self.board.executor.panics() > 0 {
+                return Err(io::Error::other("the firmware panicked"));
+            }
+            if let Some(epoch) = self.board.executor.idle_epoch()
+                && self.laser.balanced()
+                && self.gps_end.balanced()
+                && self.host_end.balanced()
+                && self.board.executor.idle_epoch() == Some(epoch)
+            {
+                return Ok(());
+            }
+            if last_progress.elapsed() > SETTLE_TIMEOUT {
+                return Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    format!(
+                        "the firmware did not settle at t = {t_us} µs (executor idle: {}, \
+                         laser {}/{} read, host {}/{} read)",
+                        self.board.executor.idle_epoch().is_some(),
+                        self.laser.board.read(),
+                        self.laser.written,
+                        self.host_end.read,
+                        self.host_end.board.written(),
+                    ),
+                ));
+            }
+            std::thread::sleep(Duration::from_micros(20));
+        }
+    }
+
+    /// Reads what the board wrote: commands to the laser, frames to the host. Returns whether
+    /// any byte moved.
+    fn pump(&mut self, t_us: u64) -> io::Result<bool> {
+        let commands = self.laser.read_available()?;
+        if !commands.is_empty() {
+            let baud = self.laser.board_baud()?;
+            self.sensors.lms.receive(&commands, baud, t_us);
+        }
+        // The GPS receiver is not configured by the board.
+        let to_gps = self.gps_end.read_available()?;
+        let frames = self.host_end.read_available()?;
+        if self.unplugged_until_us.is_some() {
+            self.host.bytes_while_unplugged += frames.len() as u64;
+        } else if !frames.is_empty() {
+            self.host.feed(&frames, t_us as f64 * 1e-6);
+        }
+        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty())
+    }
+
+    /// The fault events and the emulators' output at `t_us`. Returns whether anything was
+    /// written.
+    fn emit(&mut self, t_us: u64) -> io::Result<bool> {
+        let t_s = t_us as f64 * 1e-6;
+        let truth = self.sensors.trajectory.pose_at(t_s);
+        self.sensors.lms.set_pose(truth.sensor_pose());
+        self.sensors.gps.set_truth_state(gps_truth(&truth));
+        let outage = !self.sensors.gps_has_sky || self.faults.gps_outage_at(t_s);
+        if outage != self.in_outage {
+            self.in_outage = outage;
+            self.sensors.gps.set_fix(!outage);
+            if outage && self.sensors.gps_has_sky {
+                self.events.gps_outages += 1;
+            }
+        }
+        if let Some(until_us) = self.unplugged_until_us
+            && t_us >= until_us
+        {
+            self.unplugged_until_us = None;
+            self.host.reconnected();
+        }
+        if let Some(&at_s) = self.faults.link_replugs_s.get(self.next_replug)
+            && t_s >= at_s
+        {
+            self.next_replug += 1;
+            self.events.link_replugs += 1;
+            self.unplugged_until_us = Some(t_us + UNPLUGGED_US);
+        }
+
+        let mut wrote = self.emit_laser(t_us, &truth)?;
+        if let Some(&at_s) = self.faults.laser_restarts_s.get(self.next_restart)
+            && t_s >= at_s
+        {
+            self.next_restart += 1;
+            self.events.laser_restarts += 1;
+            self.sensors.lms.power_cycle(t_us);
+            if let Some(segment) = self.tap.cut() {
+                let baud = self.sensors.lms.baud();
+                wrote |= self.write_laser_segment(segment, baud, &truth)?;
+            }
+        }
+        let runs = self.sensors.gps.poll_output_runs(t_us);
+        let board_baud = self.gps_end.board_baud()?;
+        for run in runs {
+            let heard = garble(&run.bytes, run.baud, board_baud);
+            let damaged = self.gps_faults.apply(&heard);
+            self.gps_end.write(&damaged)?;
+            wrote |= !damaged.is_empty();
+        }
+        Ok(wrote)
+    }
+
+    fn emit_laser(&mut self, t_us: u64, truth: &RobotState) -> io::Result<bool> {
+        let mut wrote = false;
+        for run in self.sensors.lms.poll_output_runs(t_us) {
+            for segment in self.tap.push(&run.bytes) {
+                wrote |= self.write_laser_segment(segment, run.baud, truth)?;
+            }
+        }
+        Ok(wrote)
+    }
+
+    fn write_laser_segment(
+        &mut self,
+        segment: Segment,
+        sent_baud: u32,
+        truth: &RobotState,
+    ) -> io::Result<bool> {
+        let board_baud = self.laser.board_baud()?;
+        let bytes = match segment {
+            Segment::Other(bytes) => {
+                let heard = garble(&bytes, sent_baud, board_baud);
+                self.laser_faults.apply(&heard)
+            }
+            Segment::Telegram {
+                bytes,
+                is_scan,
+                cut,
+            } => {
+                if is_scan {
+                    self.sent.scan_telegrams += 1;
+                    if cut {
+                        self.sent.scan_telegrams_cut += 1;
+                    } else if let Some(values) = scan_values(&bytes) {
+                        self.host.scan_sent(SentScan {
+                            values,
+                            truth: *truth,
+                        });
+                    }
+                }
+                let heard = garble(&bytes, sent_baud, board_baud);
+                if is_scan {
+                    self.laser_faults.apply_telegram(&heard)
+                } else {
+                    self.laser_faults.apply(&heard)
+                }
+            }
+        };
+        self.laser.write(&bytes)?;
+        Ok(!bytes.is_empty())
+    }
+
+    /// Pings. Returns whether anything was written.
+    fn host_actions(&mut self, t_us: u64, phase: Phase) -> io::Result<bool> {
+        if t_us < self.next_ping_us || phase != Phase::Running {
+            return Ok(false);
+        }
+        self.next_ping_us += PING_PERIOD_US;
+        if self.unplugged_until_us.is_some() {
+            return Ok(false);
+        }
+        let ping = self.host.ping(t_us as f64 * 1e-6);
+        self.host_end.write(&ping)?;
+        Ok(true)
+    }
+
+    fn next_event_us(&mut self, t_us: u64, phase: Phase, duration_us: u64) -> u64 {
+        let mut next = t_us + MAX_STEP_US;
+        if phase == Phase::Running {
+            let emulators = [
+                self.sensors.lms.next_output_us(),
+                self.sensors.gps.next_output_us(),
+            ];
+            for at in emulators.into_iter().flatten() {
+                next = next.min(at.max(t_us + QUANTUM_US));
+            }
+            let s_to_us = |s: f64| (s * 1e6).ceil() as u64;
+            let scheduled = [
+                Some(self.next_ping_us),
+                self.faults
+                    .laser_restarts_s
+                    .get(self.next_restart)
+                    .map(|&s| s_to_us(s)),
+                self.faults
+                    .link_replugs_s
+                    .get(self.next_replug)
+                    .map(|&s| s_to_us(s)),
+                self.unplugged_until_us,
+                Some(duration_us),
+            ];
+            for at in scheduled.into_iter().flatten() {
+                if at > t_us {
+                    next = next.min(at);
+                }
+            }
+        }
+        if let Some(at) = self.clock.next_timer_us() {
+            next = next.min(at);
+        }
+        next.max(t_us + 1)
+    }
+}
+
+/// The GPS antenna at the robot's origin.
+fn gps_truth(truth: &RobotState) -> GpsTruth {
+    GpsTruth {
+        east_m: truth.x_m,
+        north_m: truth.y_m,
+        up_m: 0.0,
+        speed_mps: truth.speed_mps.abs(),
+        course_deg: (90.0 - truth.theta_rad.to_degrees()).rem_euclid(360.0),
+    }
+}
+
+/// The range words of a scan telegram, as the firmware forwards them.
+fn scan_values(bytes: &[u8]) -> Option<Vec<u16>> {
+    let telegram = Telegram::new_checked(bytes).ok()?;
+    let scan = ScanRepr::parse(&telegram).ok()?;
+    Some(scan.to_msg(0, 0, 0, 0).values.to_vec())
+}
+
+/// Opens a port's device end for [`Endpoint`] use (for tests and the hardware mode).
+pub fn open_raw(path: &str, baud: u32) -> io::Result<TTYPort> {
+    let mut port = serialport::new(path, baud)
+        .timeout(Duration::from_millis(100))
+        .open_native()
+        .map_err(io::Error::other)?;
+    port.set_exclusive(false).map_err(io::Error::other)?;
+    Ok(port)
+}
