@@ -16,6 +16,11 @@ pub const KEYFRAME_DISTANCE_M: f64 = 0.3;
 /// A new keyframe after this much turning, rad.
 pub const KEYFRAME_TURN_RAD: f64 = 0.15;
 
+/// The largest plausible motion between two scans, m (2.5 m/s at 37.5 scans per second).
+const MAX_STEP_M: f64 = 0.07;
+/// The largest plausible turn between two scans, rad.
+const MAX_TURN_RAD: f64 = 0.05;
+
 /// Laser odometry. See the [module documentation](self).
 #[derive(Debug)]
 pub struct Estimator {
@@ -60,7 +65,16 @@ impl Estimator {
             .as_ref()
             .and_then(|m| m.match_scans(keyframe, &scan, guess).ok())
             .map_or(guess, |r| r.reference_from_new);
-        self.motion = self.last_in_keyframe.inverse() * matched;
+        let motion = self.last_in_keyframe.inverse() * matched;
+        // A robot moves a few centimetres between scans; a larger step is a bad match, and
+        // extrapolating it would run away.
+        self.motion = if motion.x_m.hypot(motion.y_m) > MAX_STEP_M
+            || motion.theta_rad.abs() > MAX_TURN_RAD
+        {
+            Pose2::IDENTITY
+        } else {
+            motion
+        };
         self.last_in_keyframe = matched;
         self.pose_in_map = *keyframe_pose * matched;
         if matched.x_m.hypot(matched.y_m) > KEYFRAME_DISTANCE_M

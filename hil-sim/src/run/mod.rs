@@ -122,7 +122,7 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
         trajectory: scenario.trajectory().clone(),
         gps_has_sky: outdoor,
     };
-    let host = HostSide::new(Estimator::new(if outdoor { 0.2 } else { 0.05 }));
+    let host = HostSide::new(Estimator::new(if outdoor { 0.1 } else { 0.05 }));
     let wall = std::time::Instant::now();
     let mut engine = Engine::new(
         &clock,
