@@ -152,3 +152,33 @@ fn same_arguments_give_identical_outputs() {
         fs::read(c.join("trajectory.tsv")).unwrap()
     );
 }
+
+#[test]
+fn carmen_log_replays_through_the_chain() {
+    let Some(log) = datasets::require(
+        "benchmark/intel.clf",
+        "carmen_log_replays_through_the_chain",
+    ) else {
+        return;
+    };
+    let out = out_dir("intel");
+    let options = hil_sim::run::ReplayOptions {
+        carmen: log,
+        pace: hil_sim::emulators::ReplayPace::AsFastAsPossible,
+        no_return_from_m: Some(81.83),
+        seed: 5,
+        faults: "ber=1e-5,truncate=0.02".parse().expect("fault spec"),
+        out: out.clone(),
+        realtime: false,
+    };
+    let summary = hil_sim::run::replay_carmen(&options).expect("replay");
+    assert_accounted(&summary);
+    assert_eq!(
+        summary.telegrams_emitted, 910,
+        "every scan of the log is sent once"
+    );
+    assert!(summary.telegrams_counted_rejected > 0);
+    // The logged pose of each scan delivered is written beside the estimate.
+    let truth = read_poses(&out.join("ground_truth.tsv"));
+    assert_eq!(truth.len() as u64, summary.telegrams_delivered_intact);
+}

@@ -47,6 +47,34 @@ enum Command {
         #[arg(long)]
         realtime: bool,
     },
+    /// Replay a CARMEN laser log through the whole chain: the emulated LMS is brought up by
+    /// the firmware as usual, then streams the log's ranges (cm, 180°) over the pty; the
+    /// host's estimate and accounting are written as for `run`. ground_truth.tsv holds the
+    /// pose the log records with each scan (raw odometry in benchmark/*.clf, zero when the log
+    /// has none).
+    Replay {
+        /// The CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` is read too).
+        #[arg(long)]
+        carmen: PathBuf,
+        /// Send the scans at the log's pace instead of one per scan period (26.7 ms).
+        #[arg(long)]
+        recorded_pace: bool,
+        /// The range the log writes for "no return", m (e.g. 81.83 for Intel, 50 for ACES).
+        #[arg(long)]
+        no_return_from_m: Option<f64>,
+        /// Faults to inject (syntax as for `run`).
+        #[arg(long, default_value = "")]
+        faults: hil_sim::faults::FaultSpec,
+        /// Seed of the faults and the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "hil-replay")]
+        out: PathBuf,
+        /// Pace the run at the wall clock instead of running as fast as possible.
+        #[arg(long)]
+        realtime: bool,
+    },
     /// Decode a raw SICK LMS2xx -> host byte stream with the firmware's telegram receiver.
     ///
     /// Prints one JSON object per valid scan telegram on stdout
@@ -97,12 +125,24 @@ fn demo(options: hil_sim::demo::DemoOptions) -> Result<(), Box<dyn std::error::E
 
 fn run(options: hil_sim::run::RunOptions) -> Result<(), Box<dyn std::error::Error>> {
     let summary = hil_sim::run::run(&options)?;
-    println!("{}", serde_json::to_string_pretty(&summary)?);
+    report(&summary, &options.out)
+}
+
+fn replay(options: hil_sim::run::ReplayOptions) -> Result<(), Box<dyn std::error::Error>> {
+    let summary = hil_sim::run::replay_carmen(&options)?;
+    report(&summary, &options.out)
+}
+
+fn report(
+    summary: &hil_sim::run::RunSummary,
+    out: &std::path::Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    println!("{}", serde_json::to_string_pretty(summary)?);
     eprintln!(
         "hil-sim: {} s of sensor output in {:.2} s; outputs in {}",
-        options.duration_s,
+        summary.duration_s,
         summary.wall_s,
-        options.out.display()
+        out.display()
     );
     if summary.accounting_balanced {
         Ok(())
@@ -125,6 +165,27 @@ fn main() -> ExitCode {
             world,
             seed,
             duration_s: duration,
+            faults,
+            out,
+            realtime,
+        }),
+        Command::Replay {
+            carmen,
+            recorded_pace,
+            no_return_from_m,
+            faults,
+            seed,
+            out,
+            realtime,
+        } => replay(hil_sim::run::ReplayOptions {
+            carmen,
+            pace: if recorded_pace {
+                hil_sim::emulators::ReplayPace::Recorded
+            } else {
+                hil_sim::emulators::ReplayPace::AsFastAsPossible
+            },
+            no_return_from_m,
+            seed,
             faults,
             out,
             realtime,

@@ -142,6 +142,9 @@ pub struct Sensors<W: World> {
     pub trajectory: Trajectory,
     /// Whether the GPS can see satellites at all.
     pub gps_has_sky: bool,
+    /// The truth of each scan in the order the laser sends them, when the laser replays a
+    /// log (`trajectory` is then unused for the laser).
+    pub scan_truth: Option<Vec<RobotState>>,
 }
 
 /// Counts of what the sensors sent.
@@ -151,6 +154,8 @@ pub struct SentCounts {
     pub scan_telegrams: u64,
     /// Of those, cut by a power cycle.
     pub scan_telegrams_cut: u64,
+    /// Scan telegrams sent whole.
+    pub scan_telegrams_whole: u64,
 }
 
 /// Everything a lock-step run holds.
@@ -438,10 +443,13 @@ impl<'c, W: World> Engine<'c, W> {
                     if cut {
                         self.sent.scan_telegrams_cut += 1;
                     } else if let Some(values) = scan_values(&bytes) {
-                        self.host.scan_sent(SentScan {
-                            values,
-                            truth: *truth,
-                        });
+                        let index = self.sent.scan_telegrams_whole as usize;
+                        self.sent.scan_telegrams_whole += 1;
+                        let truth = match &self.sensors.scan_truth {
+                            Some(table) => table.get(index).copied().unwrap_or_default(),
+                            None => *truth,
+                        };
+                        self.host.scan_sent(SentScan { values, truth });
                     }
                 }
                 let heard = garble(&bytes, sent_baud, board_baud);

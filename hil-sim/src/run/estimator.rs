@@ -68,13 +68,12 @@ impl Estimator {
         let motion = self.last_in_keyframe.inverse() * matched;
         // A robot moves a few centimetres between scans; a larger step is a bad match, and
         // extrapolating it would run away.
-        self.motion = if motion.x_m.hypot(motion.y_m) > MAX_STEP_M
-            || motion.theta_rad.abs() > MAX_TURN_RAD
-        {
-            Pose2::IDENTITY
-        } else {
-            motion
-        };
+        self.motion =
+            if motion.x_m.hypot(motion.y_m) > MAX_STEP_M || motion.theta_rad.abs() > MAX_TURN_RAD {
+                Pose2::IDENTITY
+            } else {
+                motion
+            };
         self.last_in_keyframe = matched;
         self.pose_in_map = *keyframe_pose * matched;
         if matched.x_m.hypot(matched.y_m) > KEYFRAME_DISTANCE_M

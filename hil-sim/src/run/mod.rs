@@ -33,11 +33,14 @@ use firmware::tasks::gps::GpsOptions;
 use protocol::RangeUnit;
 
 use crate::board::{self, BoardConfig};
-use crate::emulators::{GpsEmulator, GpsEmulatorOptions, Lms2xx, Lms2xxOptions};
+use crate::emulators::{
+    BeamMapping, GpsEmulator, GpsEmulatorOptions, Lms2xx, Lms2xxOptions, ReplayPace,
+};
 use crate::faults::FaultSpec;
 use crate::pty::PtyLink;
+use crate::replay::{CarmenLog, recorded_scans};
 use crate::sim_time::VirtualClock;
-use crate::world::{Scenario, WorldKind};
+use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
 use engine::{Endpoint, Engine, Sensors};
 use estimator::Estimator;
 use host_side::{HostSide, ScanRecord};
@@ -65,35 +68,172 @@ pub struct RunOptions {
 /// # Errors
 /// When a pty cannot be opened, the firmware hangs, or an output cannot be written.
 pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
-    if !(options.duration_s.is_finite() && options.duration_s > 0.0) {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!(
-                "duration must be positive seconds, not {}",
-                options.duration_s
-            ),
-        ));
-    }
+    check_duration(options.duration_s)?;
     fs::create_dir_all(&options.out)?;
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
     let outdoor = options.world == WorldKind::Outdoor;
+    let lms = Lms2xx::with_world(
+        Lms2xxOptions {
+            seed: options.seed ^ 0x1A5E,
+            pose: scenario.sensor_pose_at(0.0),
+            max_range_m: if outdoor { 60.0 } else { 8.0 },
+            ..Lms2xxOptions::default()
+        },
+        scenario.world().clone(),
+    );
+    let chain = Chain {
+        lms,
+        datum: scenario.datum(),
+        trajectory: scenario.trajectory().clone(),
+        gps_has_sky: outdoor,
+        scan_truth: None,
+        // Outdoors the features are far: 80 m (cm) mode; indoors mm resolution.
+        unit: if outdoor {
+            RangeUnit::Cm
+        } else {
+            RangeUnit::Mm
+        },
+        pixel_m: if outdoor { 0.1 } else { 0.05 },
+    };
+    let (summary, records) = execute(chain, options, options.duration_s)?;
+    write_outputs(&options.out, &records, &summary)?;
+    scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(
+        options.out.join("landmarks.tsv"),
+    )?))?;
+    scenario.write_world_tsv(BufWriter::new(fs::File::create(
+        options.out.join("world.tsv"),
+    )?))?;
+    Ok(summary)
+}
 
+/// What to replay.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// A CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` too).
+    pub carmen: PathBuf,
+    /// At the log's pace, or one scan per scan period.
+    pub pace: ReplayPace,
+    /// The range the log writes for "no return", m (81.83 for Intel, 50 for ACES); ranges
+    /// at or above it become the sensor's no-return code.
+    pub no_return_from_m: Option<f64>,
+    /// Seed of the faults.
+    pub seed: u64,
+    /// Faults to inject.
+    pub faults: FaultSpec,
+    /// Where the outputs go.
+    pub out: PathBuf,
+    /// Pace the run at the wall clock.
+    pub realtime: bool,
+}
+
+/// Bring-up of the emulated laser before it streams, s (measured: about 3 s).
+const BRING_UP_ALLOWANCE_S: f64 = 5.0;
+
+/// Replays a CARMEN log's scans through the chain: the emulated LMS is brought up by the
+/// firmware as usual, then streams the recorded ranges. The truth written beside the estimate
+/// is the pose the log records with each scan.
+///
+/// # Errors
+/// When the log cannot be read, a pty cannot be opened, the firmware hangs, or an output
+/// cannot be written.
+pub fn replay_carmen(options: &ReplayOptions) -> io::Result<RunSummary> {
+    let log = CarmenLog::read(&options.carmen)
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
+    let scans = recorded_scans(&log, options.no_return_from_m);
+    let Some(first) = scans.first() else {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("{}: no laser records", options.carmen.display()),
+        ));
+    };
+    let span_s = scans
+        .last()
+        .map_or(0.0, |l| l.timestamp_s - first.timestamp_s);
+    let truth: Vec<RobotState> = log
+        .lasers()
+        .map(|l| RobotState {
+            x_m: l.robot_pose.x_m,
+            y_m: l.robot_pose.y_m,
+            theta_rad: l.robot_pose.theta_rad,
+            ..RobotState::default()
+        })
+        .collect();
+    // One scan per 0.5° period (26.7 ms) as fast as possible.
+    let stream_s = match options.pace {
+        ReplayPace::Recorded => span_s,
+        ReplayPace::AsFastAsPossible => scans.len() as f64 * 0.027,
+    };
+    fs::create_dir_all(&options.out)?;
+    let mut lms = Lms2xx::with_world(
+        Lms2xxOptions {
+            seed: options.seed ^ 0x1A5E,
+            ..Lms2xxOptions::default()
+        },
+        ShapeWorld::new(Vec::new()),
+    );
+    lms.replay(scans.into_iter(), options.pace, BeamMapping::Exact);
+    let chain = Chain {
+        lms,
+        datum: GeoDatum::default(),
+        trajectory: Trajectory::from_samples(1.0, vec![RobotState::default()]),
+        gps_has_sky: false,
+        scan_truth: Some(truth),
+        unit: RangeUnit::Cm,
+        pixel_m: 0.05,
+    };
+    let run_options = RunOptions {
+        world: WorldKind::Indoor,
+        seed: options.seed,
+        duration_s: BRING_UP_ALLOWANCE_S + stream_s,
+        faults: options.faults.clone(),
+        out: options.out.clone(),
+        realtime: options.realtime,
+    };
+    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s)?;
+    summary.world = format!("replay of {}", options.carmen.display());
+    write_outputs(&options.out, &records, &summary)?;
+    Ok(summary)
+}
+
+/// The sensors and settings of one run.
+struct Chain {
+    lms: Lms2xx<ShapeWorld>,
+    datum: GeoDatum,
+    trajectory: Trajectory,
+    gps_has_sky: bool,
+    scan_truth: Option<Vec<RobotState>>,
+    unit: RangeUnit,
+    pixel_m: f64,
+}
+
+fn check_duration(duration_s: f64) -> io::Result<()> {
+    if duration_s.is_finite() && duration_s > 0.0 {
+        Ok(())
+    } else {
+        Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("duration must be positive seconds, not {duration_s}"),
+        ))
+    }
+}
+
+/// Wires `chain` to the firmware through ptys and runs it for `duration_s` virtual seconds.
+fn execute(
+    chain: Chain,
+    options: &RunOptions,
+    duration_s: f64,
+) -> io::Result<(RunSummary, Vec<ScanRecord>)> {
     let clock = VirtualClock::begin();
     let laser_link = PtyLink::open()?;
     let gps_link = PtyLink::open()?;
     let host_link = PtyLink::open()?;
     let gps_options = GpsEmulatorOptions {
         seed: options.seed ^ 0x6750,
-        datum: scenario.datum(),
+        datum: chain.datum,
         ..GpsEmulatorOptions::default()
     };
-    // Outdoors the features are far: 80 m (cm) mode; indoors mm resolution.
     let mut laser_config = BringUpConfig::default();
-    laser_config.laser.unit = if outdoor {
-        RangeUnit::Cm
-    } else {
-        RangeUnit::Mm
-    };
+    laser_config.laser.unit = chain.unit;
     let board = board::spawn(BoardConfig {
         laser_path: laser_link.board_path().into(),
         gps_path: gps_link.board_path().into(),
@@ -107,22 +247,14 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
         Endpoint::new(gps_link, board.gps_port.clone()),
         Endpoint::new(host_link, board.host_port.clone()),
     );
-    let lms = Lms2xx::with_world(
-        Lms2xxOptions {
-            seed: options.seed ^ 0x1A5E,
-            pose: scenario.sensor_pose_at(0.0),
-            max_range_m: if outdoor { 60.0 } else { 8.0 },
-            ..Lms2xxOptions::default()
-        },
-        scenario.world().clone(),
-    );
     let sensors = Sensors {
-        lms,
+        lms: chain.lms,
         gps: GpsEmulator::new(gps_options),
-        trajectory: scenario.trajectory().clone(),
-        gps_has_sky: outdoor,
+        trajectory: chain.trajectory,
+        gps_has_sky: chain.gps_has_sky,
+        scan_truth: chain.scan_truth,
     };
-    let host = HostSide::new(Estimator::new(if outdoor { 0.1 } else { 0.05 }));
+    let host = HostSide::new(Estimator::new(chain.pixel_m));
     let wall = std::time::Instant::now();
     let mut engine = Engine::new(
         &clock,
@@ -134,21 +266,14 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
         host,
         options.realtime,
     );
-    let outcome = engine.run((options.duration_s * 1e6).round() as u64);
+    let outcome = engine.run((duration_s * 1e6).round() as u64);
     board.stop();
     outcome?;
-    let wall_s = wall.elapsed().as_secs_f64();
-    let summary = RunSummary::new(options, &engine, wall_s);
-    write_outputs(&options.out, &scenario, &engine.host.records, &summary)?;
-    Ok(summary)
+    let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
+    Ok((summary, std::mem::take(&mut engine.host.records)))
 }
 
-fn write_outputs(
-    out: &Path,
-    scenario: &Scenario,
-    records: &[ScanRecord],
-    summary: &RunSummary,
-) -> io::Result<()> {
+fn write_outputs(out: &Path, records: &[ScanRecord], summary: &RunSummary) -> io::Result<()> {
     let origin = records.first().map(|r| r.truth);
     let mut trajectory = BufWriter::new(fs::File::create(out.join("trajectory.tsv"))?);
     let mut truth = BufWriter::new(fs::File::create(out.join("ground_truth.tsv"))?);
@@ -168,8 +293,6 @@ fn write_outputs(
     }
     trajectory.flush()?;
     truth.flush()?;
-    scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(out.join("landmarks.tsv"))?))?;
-    scenario.write_world_tsv(BufWriter::new(fs::File::create(out.join("world.tsv"))?))?;
     let json = serde_json::to_string_pretty(summary).map_err(io::Error::other)?;
     fs::write(out.join("summary.json"), json + "\n")
 }
