@@ -162,20 +162,14 @@ impl ScanMatcher for FastMatcher {
         search.explore(top_blocks);
 
         let (uncovered_px, table_index) = search.best;
-        let candidate = table
-            .candidate(table_index)
-            .ok_or(ScanMatchError::InvalidOptions("empty search table"))?;
-        Ok(MatchResult {
-            reference_from_new: table.reference_from_new(
-                initial_reference_from_new,
-                raster,
-                candidate,
-            ),
-            candidate,
+        MatchResult::for_table_entry(
+            table,
+            raster,
+            initial_reference_from_new,
             table_index,
-            score_px: reference_px + uncovered_px,
-            candidates_evaluated: search.candidates_evaluated,
-        })
+            reference_px + uncovered_px,
+            search.candidates_evaluated,
+        )
     }
 }
 

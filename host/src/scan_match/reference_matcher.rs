@@ -101,20 +101,14 @@ impl ScanMatcher for ReferenceMatcher {
 
         // The table always holds at least one candidate, so `best` is set.
         let (score_px, table_index) = best.unwrap_or((0, 0));
-        let candidate = table
-            .candidate(table_index)
-            .ok_or(ScanMatchError::InvalidOptions("empty search table"))?;
-        Ok(MatchResult {
-            reference_from_new: table.reference_from_new(
-                initial_reference_from_new,
-                raster,
-                candidate,
-            ),
-            candidate,
+        MatchResult::for_table_entry(
+            table,
+            raster,
+            initial_reference_from_new,
             table_index,
             score_px,
-            candidates_evaluated: table.len(),
-        })
+            table.len(),
+        )
     }
 }
 

@@ -252,6 +252,36 @@ pub struct MatchResult {
     pub candidates_evaluated: usize,
 }
 
+impl MatchResult {
+    /// The result for entry `table_index` of `table` around `initial_reference_from_new`.
+    ///
+    /// # Errors
+    /// [`ScanMatchError::InvalidOptions`] when the table has no such entry.
+    pub fn for_table_entry(
+        table: &SearchTable,
+        raster: &RasterOptions,
+        initial_reference_from_new: Pose2,
+        table_index: usize,
+        score_px: u32,
+        candidates_evaluated: usize,
+    ) -> Result<MatchResult, ScanMatchError> {
+        let candidate = table
+            .candidate(table_index)
+            .ok_or(ScanMatchError::InvalidOptions("empty search table"))?;
+        Ok(MatchResult {
+            reference_from_new: table.reference_from_new(
+                initial_reference_from_new,
+                raster,
+                candidate,
+            ),
+            candidate,
+            table_index,
+            score_px,
+            candidates_evaluated,
+        })
+    }
+}
+
 /// Why a match could not run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ScanMatchError {
