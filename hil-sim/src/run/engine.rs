@@ -21,7 +21,7 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use firmware::sick::{ScanRepr, Telegram};
-use serialport::{SerialPort, TTYPort};
+use serialport::SerialPort;
 
 use super::host_side::{HostSide, SentScan};
 use super::tap::{Segment, TelegramTap};
@@ -531,14 +531,4 @@ fn scan_values(bytes: &[u8]) -> Option<Vec<u16>> {
     let telegram = Telegram::new_checked(bytes).ok()?;
     let scan = ScanRepr::parse(&telegram).ok()?;
     Some(scan.to_msg(0, 0, 0, 0).values.to_vec())
-}
-
-/// Opens a port's device end for [`Endpoint`] use (for tests and the hardware mode).
-pub fn open_raw(path: &str, baud: u32) -> io::Result<TTYPort> {
-    let mut port = serialport::new(path, baud)
-        .timeout(Duration::from_millis(100))
-        .open_native()
-        .map_err(io::Error::other)?;
-    port.set_exclusive(false).map_err(io::Error::other)?;
-    Ok(port)
 }

@@ -6,6 +6,7 @@ use serde::Serialize;
 use super::RunOptions;
 use super::engine::{Engine, EventsInjected};
 use crate::faults::InjectedFaults;
+use crate::world::robot_state::wrap_angle_rad;
 use crate::world::{RobotState, World};
 
 /// The summary of one run. The first seven fields are the accounting.
@@ -113,17 +114,8 @@ pub fn in_map(origin: Option<RobotState>, truth: &RobotState) -> [f64; 3] {
     [
         cos * dx + sin * dy,
         -sin * dx + cos * dy,
-        wrap(truth.theta_rad - o.theta_rad),
+        wrap_angle_rad(truth.theta_rad - o.theta_rad),
     ]
-}
-
-fn wrap(angle_rad: f64) -> f64 {
-    let wrapped = angle_rad.rem_euclid(std::f64::consts::TAU);
-    if wrapped > std::f64::consts::PI {
-        wrapped - std::f64::consts::TAU
-    } else {
-        wrapped
-    }
 }
 
 impl RunSummary {
@@ -198,7 +190,7 @@ fn estimate_error(records: &[super::host_side::ScanRecord]) -> EstimateError {
         let [x, y, theta] = record.estimate;
         let error_m = (x - truth[0]).hypot(y - truth[1]);
         sum_sq_m += error_m * error_m;
-        sum_sq_rad += wrap(theta - truth[2]).powi(2);
+        sum_sq_rad += wrap_angle_rad(theta - truth[2]).powi(2);
         final_position_m = error_m;
         if let Some(p) = previous {
             travelled_m += (truth[0] - p[0]).hypot(truth[1] - p[1]);
