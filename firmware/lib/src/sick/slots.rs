@@ -51,6 +51,8 @@ pub struct ScanSlots {
     after_break: u32,
     /// Whether a break happened since the last accepted telegram.
     broken: bool,
+    /// Whether a telegram was accepted in the last slot counted.
+    slot_taken: bool,
     /// Slots that received bytes, since boot.
     active: u32,
     /// Telegrams accepted while counting, since boot.
@@ -85,6 +87,7 @@ impl ScanSlots {
             last_byte_ns: 0,
             after_break: 0,
             broken: false,
+            slot_taken: false,
             active: 0,
             accepted: 0,
         }
@@ -119,6 +122,7 @@ impl ScanSlots {
         self.last_slot = 0;
         self.after_break = 0;
         self.broken = false;
+        self.slot_taken = false;
     }
 
     /// A byte arrived at `stamp_us`. Feed every byte, before the receiver sees it.
@@ -147,11 +151,18 @@ impl ScanSlots {
 
     /// A scan telegram whose first byte arrived at `first_byte_us` was accepted.
     ///
-    /// Its bytes have already counted its slot. Its start moves the grid along (the sensor's
-    /// clock and the board's drift apart), unless the stamp lies far from the grid: a stamp
-    /// interpolated by the receiver after a resynchronisation is not trusted for that.
+    /// Its bytes have already counted its slot, unless another accepted telegram took that
+    /// slot (bytes read late in one burst with the next telegram's carry the same stamps):
+    /// each telegram has a slot of its own, so it counts one then. Its start moves the grid
+    /// along (the sensor's clock and the board's drift apart), unless the stamp lies far from
+    /// the grid: a stamp interpolated by the receiver after a resynchronisation is not
+    /// trusted for that.
     pub fn on_scan(&mut self, first_byte_us: u64) {
         let Some(timing) = self.timing else { return };
+        if self.slot_taken {
+            self.count_slot();
+        }
+        self.slot_taken = true;
         self.accepted = self.accepted.wrapping_add(1);
         self.after_break = 0;
         self.broken = false;
@@ -177,6 +188,7 @@ impl ScanSlots {
     }
 
     fn count_slot(&mut self) {
+        self.slot_taken = false;
         self.active = self.active.wrapping_add(1);
         if self.broken {
             self.after_break += 1;
@@ -209,6 +221,22 @@ mod tests {
     fn telegram(slots: &mut ScanSlots, start_us: u64) {
         bytes(slots, start_us, 1.0);
         slots.on_scan(start_us);
+    }
+
+    #[test]
+    fn telegrams_read_in_one_burst_keep_a_slot_each() {
+        let mut slots = streaming();
+        telegram(&mut slots, 5_000);
+        // The next two telegrams are read late, together, with one stamp.
+        let late_us = 5_000 + 3 * PERIOD_US;
+        for _ in 0..2 {
+            for _ in 0..732 {
+                slots.on_byte(late_us);
+            }
+            slots.on_scan(late_us);
+        }
+        telegram(&mut slots, 5_000 + 4 * PERIOD_US);
+        assert_eq!(slots.missed(), 0);
     }
 
     #[test]
