@@ -32,6 +32,7 @@ fn run_world(
         faults: faults.parse::<FaultSpec>().expect("fault spec"),
         out: out.clone(),
         realtime: false,
+        hardware: None,
     };
     let summary = run(&options).expect("run");
     (summary, out)
@@ -163,15 +164,16 @@ fn carmen_log_replays_through_the_chain() {
     };
     let out = out_dir("intel");
     let options = hil_sim::run::ReplayOptions {
-        carmen: log,
+        source: hil_sim::run::ReplaySource::Carmen(log),
         pace: hil_sim::emulators::ReplayPace::AsFastAsPossible,
         no_return_from_m: Some(81.83),
         seed: 5,
         faults: "ber=1e-5,truncate=0.02".parse().expect("fault spec"),
         out: out.clone(),
         realtime: false,
+        hardware: None,
     };
-    let summary = hil_sim::run::replay_carmen(&options).expect("replay");
+    let summary = hil_sim::run::replay(&options).expect("replay");
     assert_accounted(&summary);
     assert_eq!(
         summary.telegrams_emitted, 910,

@@ -46,20 +46,36 @@ enum Command {
         /// Pace the run at the wall clock instead of running as fast as possible.
         #[arg(long)]
         realtime: bool,
+        #[command(flatten)]
+        hardware: HardwareArgs,
     },
-    /// Replay a CARMEN laser log through the whole chain: the emulated LMS is brought up by
-    /// the firmware as usual, then streams the log's ranges (cm, 180°) over the pty; the
-    /// host's estimate and accounting are written as for `run`. ground_truth.tsv holds the
-    /// pose the log records with each scan (raw odometry in benchmark/*.clf, zero when the log
-    /// has none).
+    /// Replay a recording through the whole chain: the emulated LMS is brought up by the
+    /// firmware as usual, then streams the recording's scans over the serial line (and the
+    /// GPS emulator its fixes); the host's estimate and accounting are written as for `run`.
+    /// ground_truth.tsv holds the recording's own truth: the pose a CARMEN log records with
+    /// each scan (raw odometry in benchmark/*.clf, zero when the log has none), the GPS
+    /// position for Victoria Park, zero for a raw capture.
+    #[command(group(clap::ArgGroup::new("source").required(true).args(["carmen", "victoria", "capture"])))]
     Replay {
-        /// The CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` is read too).
+        /// A CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` is read too).
         #[arg(long)]
-        carmen: PathBuf,
-        /// Send the scans at the log's pace instead of one per scan period (26.7 ms).
+        carmen: Option<PathBuf>,
+        /// The Victoria Park directory holding measurements.dat, gps.dat and inputs.dat
+        /// (rfs_slam_ascii): scans rebuilt from the tree detections, GPS fixes as NMEA.
+        #[arg(long)]
+        victoria: Option<PathBuf>,
+        /// A raw sensor -> host capture (e.g. benchmark/lms200/*.lms-to-host.bin): its scan
+        /// telegrams go out byte for byte, damaged ones too.
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// The baud rate the capture was recorded at (it times the recorded pace).
+        #[arg(long, default_value_t = 38_400)]
+        capture_baud: u32,
+        /// Send the scans at the recording's pace instead of one per scan period (26.7 ms).
         #[arg(long)]
         recorded_pace: bool,
-        /// The range the log writes for "no return", m (e.g. 81.83 for Intel, 50 for ACES).
+        /// The range a CARMEN log writes for "no return", m (e.g. 81.83 for Intel, 50 for
+        /// ACES).
         #[arg(long)]
         no_return_from_m: Option<f64>,
         /// Faults to inject (syntax as for `run`).
@@ -74,6 +90,8 @@ enum Command {
         /// Pace the run at the wall clock instead of running as fast as possible.
         #[arg(long)]
         realtime: bool,
+        #[command(flatten)]
+        hardware: HardwareArgs,
     },
     /// Decode a raw SICK LMS2xx -> host byte stream with the firmware's telegram receiver.
     ///
@@ -113,6 +131,44 @@ enum Command {
     },
 }
 
+/// Hardware in the loop: a flashed board on real serial ports.
+#[derive(Debug, clap::Args)]
+struct HardwareArgs {
+    /// Drive a flashed board on real serial ports instead of the firmware in this process:
+    /// the emulated laser writes to --laser-port at its own current baud rate (following its
+    /// baud switches), the GPS to --gps-port, and the host reads --host-port. Runs on the wall
+    /// clock (no lock-step); the board's counters come from its status report.
+    #[arg(long, requires_all = ["laser_port", "gps_port", "host_port"])]
+    hardware: bool,
+    /// With --hardware: the serial port wired to the board's laser UART (RS-422 side).
+    #[arg(long, requires = "hardware")]
+    laser_port: Option<PathBuf>,
+    /// With --hardware: the serial port wired to the board's GPS UART.
+    #[arg(long, requires = "hardware")]
+    gps_port: Option<PathBuf>,
+    /// With --hardware: the board's host link, e.g. /dev/ttyACM0.
+    #[arg(long, requires = "hardware")]
+    host_port: Option<PathBuf>,
+    /// With --hardware: the rate the board's GPS UART listens at (the GPS epoch rate is
+    /// lowered to what fits).
+    #[arg(long, default_value_t = 9_600)]
+    gps_baud: u32,
+}
+
+impl HardwareArgs {
+    fn ports(self) -> Option<hil_sim::run::HardwarePorts> {
+        if !self.hardware {
+            return None;
+        }
+        Some(hil_sim::run::HardwarePorts {
+            laser: self.laser_port?,
+            gps: self.gps_port?,
+            host: self.host_port?,
+            gps_baud: self.gps_baud,
+        })
+    }
+}
+
 fn demo(options: hil_sim::demo::DemoOptions) -> Result<(), Box<dyn std::error::Error>> {
     if !(options.seconds.is_finite() && options.seconds > 0.0) {
         return Err("--seconds must be a positive number".into());
@@ -129,7 +185,7 @@ fn run(options: hil_sim::run::RunOptions) -> Result<(), Box<dyn std::error::Erro
 }
 
 fn replay(options: hil_sim::run::ReplayOptions) -> Result<(), Box<dyn std::error::Error>> {
-    let summary = hil_sim::run::replay_carmen(&options)?;
+    let summary = hil_sim::run::replay(&options)?;
     report(&summary, &options.out)
 }
 
@@ -161,6 +217,7 @@ fn main() -> ExitCode {
             faults,
             out,
             realtime,
+            hardware,
         } => run(hil_sim::run::RunOptions {
             world,
             seed,
@@ -168,28 +225,47 @@ fn main() -> ExitCode {
             faults,
             out,
             realtime,
+            hardware: hardware.ports(),
         }),
         Command::Replay {
             carmen,
+            victoria,
+            capture,
+            capture_baud,
             recorded_pace,
             no_return_from_m,
             faults,
             seed,
             out,
             realtime,
-        } => replay(hil_sim::run::ReplayOptions {
-            carmen,
-            pace: if recorded_pace {
-                hil_sim::emulators::ReplayPace::Recorded
-            } else {
-                hil_sim::emulators::ReplayPace::AsFastAsPossible
-            },
-            no_return_from_m,
-            seed,
-            faults,
-            out,
-            realtime,
-        }),
+            hardware,
+        } => {
+            use hil_sim::run::ReplaySource;
+            let source = match (carmen, victoria, capture) {
+                (Some(log), _, _) => ReplaySource::Carmen(log),
+                (_, Some(dir), _) => ReplaySource::Victoria(dir),
+                (_, _, Some(path)) => ReplaySource::Capture {
+                    path,
+                    baud: capture_baud,
+                },
+                // clap requires exactly one of the three.
+                (None, None, None) => return ExitCode::FAILURE,
+            };
+            replay(hil_sim::run::ReplayOptions {
+                source,
+                pace: if recorded_pace {
+                    hil_sim::emulators::ReplayPace::Recorded
+                } else {
+                    hil_sim::emulators::ReplayPace::AsFastAsPossible
+                },
+                no_return_from_m,
+                seed,
+                faults,
+                out,
+                realtime,
+                hardware: hardware.ports(),
+            })
+        }
         Command::DecodeSick { file } => hil_sim::decode_sick::run(&file),
         Command::DecodeNmea { file } => hil_sim::decode_nmea::run(&file),
         Command::Demo {

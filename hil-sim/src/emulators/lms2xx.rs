@@ -59,7 +59,8 @@
 //!   log denser than the line carries goes out late, never thinned. When the source is
 //!   exhausted the sensor keeps reporting that it streams but sends no more scans. A `30 01`
 //!   request gets the recorded scan due then, else the last one sent again, else no `B0h`.
-//!   Conversion to range words: see [`recorded_words`].
+//!   Conversion to range words: see [`recorded_words`]; a recorded scan that carries a
+//!   captured telegram ([`RecordedScan::telegram`]) goes out as those bytes, verbatim.
 
 use std::collections::VecDeque;
 
@@ -812,6 +813,9 @@ impl<W: World> Lms2xx<W> {
 
     /// The `B0h` telegram of the recorded `scan`, completed with mirror rotation `rotation`.
     fn recorded_scan(&mut self, scan: &RecordedScan, rotation: u64) -> Vec<u8> {
+        if let Some(telegram) = &scan.telegram {
+            return telegram.clone();
+        }
         let unit = self.config.unit().unwrap_or(RangeUnit::Cm);
         let mapping = self
             .replay
@@ -890,6 +894,9 @@ pub struct RecordedScan {
     /// Ranges at or above this are the recorder's "no return" marker, metres (e.g. the
     /// maximum range of a `ROBOTLASER1` message).
     pub no_return_from_m: Option<f64>,
+    /// The exact bytes of a captured telegram, sent verbatim in place of one built from
+    /// the ranges, whatever its variant, unit or CRC (a raw capture's scans).
+    pub telegram: Option<Vec<u8>>,
 }
 
 /// Where recorded scans come from, in the order they were recorded.
@@ -1725,6 +1732,7 @@ mod tests {
             resolution_rad: 1f64.to_radians(),
             ranges_m: (0..count).map(|i| 1.0 + i as f64 / 100.0).collect(),
             no_return_from_m: None,
+            telegram: None,
         }
     }
 

@@ -12,7 +12,7 @@ use std::path::Path;
 
 use super::error::LogError;
 use crate::emulators::tx_line::byte_offset_us;
-use crate::emulators::{TxLine, TxRun};
+use crate::emulators::{RecordedScan, TxLine, TxRun};
 
 /// Bytes that left the line together, and when the last of them had.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -139,10 +139,49 @@ impl CaptureReplay {
     }
 }
 
+/// The scan telegrams of a raw sensor → host capture, to stream verbatim in place of the
+/// emulated sensor's own scans ([`Lms2xx::replay`](crate::emulators::Lms2xx::replay)): each
+/// `B0h` telegram (framed by STX, address and length; the CRC is not checked, so scans damaged
+/// before they were recorded go out damaged), in order. Replies to the recording host's
+/// requests and bytes outside telegrams are left out: the emulated sensor answers the
+/// firmware's own requests. Timestamps are when each telegram's last byte left a line at
+/// `baud` that never idles, from 0.
+pub fn capture_scans(bytes: &[u8], baud: u32) -> Vec<RecordedScan> {
+    const HEADER_LEN: usize = 4;
+    const SCAN_CODE: u8 = 0xB0;
+    let mut scans = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        if bytes[at] != firmware::sick::telegram::STX {
+            at += 1;
+            continue;
+        }
+        let Some(&[lo, hi]) = bytes.get(at + 2..at + HEADER_LEN) else {
+            break;
+        };
+        let end = at + HEADER_LEN + usize::from(u16::from_le_bytes([lo, hi])) + 2;
+        let Some(telegram) = bytes.get(at..end) else {
+            break;
+        };
+        if telegram.get(HEADER_LEN) == Some(&SCAN_CODE) {
+            scans.push(RecordedScan {
+                timestamp_s: byte_offset_us(end as u64, baud.max(1)) as f64 * 1e-6,
+                first_beam_rad: 0.0,
+                resolution_rad: 0.0,
+                ranges_m: Vec::new(),
+                no_return_from_m: None,
+                telegram: Some(telegram.to_vec()),
+            });
+        }
+        at = end;
+    }
+    scans
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firmware::sick::{Event, Receiver};
+    use firmware::sick::{Event, Receiver, Telegram};
 
     #[test]
     fn paced_at_the_baud_rate() {
@@ -195,5 +234,39 @@ mod tests {
         assert_eq!(bytes, std::fs::read(&path).unwrap());
         // As many CRC-valid scans as the session's scans.jsonl lists.
         assert_eq!(scans, 17);
+    }
+
+    #[test]
+    fn capture_scans_keep_damaged_scans_and_drop_replies() {
+        let Some(path) = datasets::require(
+            "benchmark/lms200/2017_Aug_05_19-07-55.lms-to-host.bin",
+            "capture_scans_keep_damaged_scans_and_drop_replies",
+        ) else {
+            return;
+        };
+        let bytes = std::fs::read(&path).unwrap();
+        let scans = capture_scans(&bytes, 38_400);
+        // One scan telegram, read out of step when it was recorded: its CRC fails.
+        assert_eq!(scans.len(), 1);
+        let telegram = scans[0].telegram.as_deref().unwrap();
+        assert_eq!((telegram.len(), telegram[4]), (732, 0xB0));
+        let crc_ok = |t: &[u8]| Telegram::new_checked(t).is_ok_and(|t| t.check_crc().is_ok());
+        assert!(!crc_ok(telegram));
+        assert!(bytes.ends_with(telegram));
+        // A clean session: every scan, each intact.
+        let Some(path) = datasets::require(
+            "benchmark/lms200/2017_Aug_04_23-25-00.lms-to-host.bin",
+            "capture_scans_keep_damaged_scans_and_drop_replies",
+        ) else {
+            return;
+        };
+        let scans = capture_scans(&std::fs::read(&path).unwrap(), 38_400);
+        assert_eq!(scans.len(), 17);
+        assert!(
+            scans
+                .iter()
+                .all(|s| crc_ok(s.telegram.as_deref().unwrap()))
+        );
+        assert!(scans.windows(2).all(|w| w[0].timestamp_s < w[1].timestamp_s));
     }
 }

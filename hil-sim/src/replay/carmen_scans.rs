@@ -21,6 +21,7 @@ impl LaserRecord {
             resolution_rad: self.resolution_rad,
             ranges_m: self.ranges_m.clone(),
             no_return_from_m: no_return_from_m.or(self.max_range_m),
+            telegram: None,
         }
     }
 }

@@ -31,7 +31,7 @@ pub mod relations;
 pub mod tree_scans;
 pub mod victoria;
 
-pub use capture::{CaptureReplay, TimedRun};
+pub use capture::{CaptureReplay, TimedRun, capture_scans};
 pub use carmen::{
     CarmenCounts, CarmenLog, CarmenReader, CarmenRecord, LaserMessage, LaserRecord, LoggedPose,
     OdomRecord, flaser_resolution_rad,

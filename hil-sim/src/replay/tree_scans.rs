@@ -96,6 +96,7 @@ pub fn synthesize_tree_scan(scan: &TreeScan, options: &TreeScanOptions) -> Recor
         resolution_rad: options.resolution_rad,
         ranges_m,
         no_return_from_m: None,
+        telegram: None,
     }
 }
 

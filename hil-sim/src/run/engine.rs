@@ -16,12 +16,23 @@
 //!
 //! The firmware sees the same bytes at the same virtual times whatever the host's speed, so a
 //! run is reproducible to the byte; `realtime` only waits for the wall clock before each step.
+//!
+//! # Wall-clock wiring (a real board)
+//!
+//! With [`Wiring::Wall`] the same loop drives serial lines to a board the engine cannot see
+//! inside: a flashed board on real ports (hardware in the loop), or firmware running in wall
+//! mode elsewhere. There is no settling (the engine cannot know when the board has reacted),
+//! time is the wall clock, and each line runs at the baud rate of the emulator that drives
+//! it: the laser line follows the emulated sensor through its baud switches, so a board
+//! listening at another rate hears what a real UART would. Everything the summary counts on
+//! the board comes from its own status report.
 
 use std::io::{self, Read, Write};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use firmware::sick::{ScanRepr, Telegram};
-use serialport::SerialPort;
+use serialport::{SerialPort, TTYPort};
 
 use super::host_side::{HostSide, SentScan};
 use super::tap::{Segment, TelegramTap};
@@ -29,6 +40,7 @@ use crate::board::Board;
 use crate::emulators::{GpsEmulator, GpsTruth, Lms2xx, garble};
 use crate::faults::{ByteFaults, FaultSpec};
 use crate::pty::{PortCounters, PtyLink};
+use crate::replay::{GpsReplay, GpsReplayOptions, LocalGpsFix};
 use crate::sim_time::VirtualClock;
 use crate::world::{RobotState, Trajectory, World};
 
@@ -47,37 +59,74 @@ pub const UNPLUGGED_US: u64 = 300_000;
 /// A settle that makes no progress for this long means the firmware hangs.
 const SETTLE_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// The serial line under an [`Endpoint`].
+pub enum Line {
+    /// The device end of a pseudo-terminal whose other end a board opened.
+    Pty(PtyLink),
+    /// A serial port (a real UART adapter, or any tty).
+    Port(TTYPort),
+}
+
+impl Line {
+    fn device(&mut self) -> &mut TTYPort {
+        match self {
+            Line::Pty(link) => &mut link.device,
+            Line::Port(port) => port,
+        }
+    }
+}
+
 /// One end of a serial line that the simulation drives, with what it moved.
 pub struct Endpoint {
-    /// The device (pty master) end.
-    pub link: PtyLink,
-    /// The board's counters for its end.
-    pub board: std::sync::Arc<PortCounters>,
+    line: Line,
+    /// The board's counters for its end, when the board runs in this process.
+    board: Option<Arc<PortCounters>>,
     written: u64,
     read: u64,
 }
 
 impl Endpoint {
-    /// An endpoint on `link` whose other end the board counts in `board`.
-    pub fn new(link: PtyLink, board: std::sync::Arc<PortCounters>) -> Endpoint {
+    /// A lock-step endpoint on `link` whose other end the board counts in `board`.
+    pub fn new(link: PtyLink, board: Arc<PortCounters>) -> Endpoint {
         Endpoint {
-            link,
-            board,
+            line: Line::Pty(link),
+            board: Some(board),
             written: 0,
             read: 0,
         }
+    }
+
+    /// A wall-clock endpoint on `line`, whose other end the engine cannot observe. The line's
+    /// baud rate follows the emulator that writes to it.
+    pub fn wall(line: Line) -> Endpoint {
+        Endpoint {
+            line,
+            board: None,
+            written: 0,
+            read: 0,
+        }
+    }
+
+    /// Bytes written to the board.
+    pub fn written(&self) -> u64 {
+        self.written
+    }
+
+    /// Bytes read from the board.
+    pub fn read(&self) -> u64 {
+        self.read
     }
 
     /// Reads what is there without waiting.
     fn read_available(&mut self) -> io::Result<Vec<u8>> {
         let mut out = Vec::new();
         let mut buf = [0u8; 4096];
-        self.link
-            .device
+        let device = self.line.device();
+        device
             .set_timeout(Duration::ZERO)
             .map_err(io::Error::other)?;
         loop {
-            match self.link.device.read(&mut buf) {
+            match device.read(&mut buf) {
                 Ok(0) => break,
                 Ok(n) => out.extend_from_slice(&buf[..n]),
                 Err(e)
@@ -100,25 +149,58 @@ impl Endpoint {
         if bytes.is_empty() {
             return Ok(());
         }
-        self.link
-            .device
+        let device = self.line.device();
+        device
             .set_timeout(SETTLE_TIMEOUT)
             .map_err(io::Error::other)?;
-        self.link.device.write_all(bytes)?;
+        device.write_all(bytes)?;
         self.written += bytes.len() as u64;
         Ok(())
     }
 
-    /// Whether the board has read everything written to it and everything it wrote was read.
+    /// Whether the board has read everything written to it and everything it wrote was read
+    /// (always true when the board cannot be observed).
     fn balanced(&self) -> bool {
-        self.board.read() == self.written
-            && self.board.written() == self.read
-            && !self.board.writing()
+        self.board.as_ref().is_none_or(|board| {
+            board.read() == self.written && board.written() == self.read && !board.writing()
+        })
     }
 
-    fn board_baud(&self) -> io::Result<u32> {
-        self.link.board_baud()
+    /// The rate the board's end listens at: read back from the pty when the board is in
+    /// this process, otherwise the line's own rate (a real UART pair garbles by itself).
+    fn board_baud(&mut self) -> io::Result<u32> {
+        match (&self.board, &mut self.line) {
+            (Some(_), Line::Pty(link)) => link.board_baud(),
+            (_, line) => line.device().baud_rate().map_err(io::Error::other),
+        }
     }
+
+    /// On a wall-clock line, sets the line to `baud` once everything written so far has left
+    /// at the old rate; a lock-step line keeps the board's rate.
+    fn follow_baud(&mut self, baud: u32) -> io::Result<()> {
+        if self.board.is_some() {
+            return Ok(());
+        }
+        let device = self.line.device();
+        if device.baud_rate().map_err(io::Error::other)? != baud {
+            device.flush()?;
+            device.set_baud_rate(baud).map_err(io::Error::other)?;
+        }
+        Ok(())
+    }
+}
+
+/// How the engine is wired to the firmware and what clock it runs on.
+pub enum Wiring<'c> {
+    /// The firmware runs in this process on `clock`, which the engine advances; steps settle.
+    LockStep {
+        /// The virtual clock of the session.
+        clock: &'c VirtualClock,
+        /// The firmware instance.
+        board: Board,
+    },
+    /// A board the engine cannot observe, on the wall clock.
+    Wall,
 }
 
 /// What the fault events did.
@@ -145,6 +227,10 @@ pub struct Sensors<W: World> {
     /// The truth of each scan in the order the laser sends them, when the laser replays a
     /// log (`trajectory` is then unused for the laser).
     pub scan_truth: Option<Vec<RobotState>>,
+    /// Recorded GPS fixes to replay instead of following `trajectory`, with the log time of
+    /// the laser's first recorded scan: the fixes start when that scan goes out, keeping
+    /// the log's timing between the two sensors (at the recorded laser pace).
+    pub gps_log: Option<(Vec<LocalGpsFix>, f64)>,
 }
 
 /// Counts of what the sensors sent.
@@ -160,8 +246,7 @@ pub struct SentCounts {
 
 /// Everything a lock-step run holds.
 pub struct Engine<'c, W: World> {
-    clock: &'c VirtualClock,
-    board: Board,
+    wiring: Wiring<'c>,
     laser: Endpoint,
     gps_end: Endpoint,
     host_end: Endpoint,
@@ -182,6 +267,7 @@ pub struct Engine<'c, W: World> {
     in_outage: bool,
     next_ping_us: u64,
     realtime: Option<Instant>,
+    gps_replay: Option<GpsReplay>,
 }
 
 /// Where a run stands.
@@ -196,8 +282,7 @@ impl<'c, W: World> Engine<'c, W> {
     /// Assembles a run; nothing happens until [`Self::run`].
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        clock: &'c VirtualClock,
-        board: Board,
+        wiring: Wiring<'c>,
         (laser, gps_end, host_end): (Endpoint, Endpoint, Endpoint),
         sensors: Sensors<W>,
         faults: FaultSpec,
@@ -205,9 +290,10 @@ impl<'c, W: World> Engine<'c, W> {
         host: HostSide,
         realtime: bool,
     ) -> Self {
+        // On the wall clock there is nothing to wait for but the wall.
+        let realtime = realtime || matches!(wiring, Wiring::Wall);
         Engine {
-            clock,
-            board,
+            wiring,
             laser,
             gps_end,
             host_end,
@@ -231,6 +317,7 @@ impl<'c, W: World> Engine<'c, W> {
             in_outage: false,
             next_ping_us: PING_PERIOD_US / 2,
             realtime: realtime.then(Instant::now),
+            gps_replay: None,
         }
     }
 
@@ -244,9 +331,18 @@ impl<'c, W: World> Engine<'c, W> {
         &self.sensors
     }
 
-    /// The firmware instance.
-    pub fn board(&self) -> &Board {
-        &self.board
+    /// Panics in the firmware, when it runs in this process (a board on real ports reports
+    /// none: a reset shows as a missing final status or as scan-counter gaps).
+    pub fn panics(&self) -> u32 {
+        match &self.wiring {
+            Wiring::LockStep { board, .. } => board.executor.panics(),
+            Wiring::Wall => 0,
+        }
+    }
+
+    /// Bytes written to and read from the laser, GPS and host lines.
+    pub fn endpoints(&self) -> [&Endpoint; 3] {
+        [&self.laser, &self.gps_end, &self.host_end]
     }
 
     /// Runs for `duration_us` of virtual time, then drains and asks the board for its final
@@ -296,29 +392,45 @@ impl<'c, W: World> Engine<'c, W> {
                     std::thread::sleep(wait);
                 }
             }
-            self.clock.advance_to(next_us);
-            t_us = next_us;
+            t_us = match &self.wiring {
+                Wiring::LockStep { clock, .. } => {
+                    clock.advance_to(next_us);
+                    next_us
+                }
+                Wiring::Wall => self
+                    .realtime
+                    .map_or(next_us, |start| start.elapsed().as_micros() as u64)
+                    .max(next_us),
+            };
         }
     }
 
-    /// Moves bytes until the firmware has reacted to everything at `t_us`.
+    /// Moves bytes until the firmware has reacted to everything at `t_us` (on the wall clock:
+    /// moves what is there).
     fn settle(&mut self, t_us: u64) -> io::Result<()> {
+        let (clock, board) = match &self.wiring {
+            Wiring::LockStep { clock, board } => (*clock, board.clone()),
+            Wiring::Wall => {
+                self.pump(t_us)?;
+                return Ok(());
+            }
+        };
         let mut last_progress = Instant::now();
         loop {
             let moved = self.pump(t_us)?;
-            let timer_due = self.clock.next_timer_us().is_some_and(|at| at <= t_us);
+            let timer_due = clock.next_timer_us().is_some_and(|at| at <= t_us);
             if moved || timer_due {
                 last_progress = Instant::now();
                 continue;
             }
-            if self.board.executor.panics() > 0 {
+            if board.executor.panics() > 0 {
                 return Err(io::Error::other("the firmware panicked"));
             }
-            if let Some(epoch) = self.board.executor.idle_epoch()
+            if let Some(epoch) = board.executor.idle_epoch()
                 && self.laser.balanced()
                 && self.gps_end.balanced()
                 && self.host_end.balanced()
-                && self.board.executor.idle_epoch() == Some(epoch)
+                && board.executor.idle_epoch() == Some(epoch)
             {
                 return Ok(());
             }
@@ -328,11 +440,11 @@ impl<'c, W: World> Engine<'c, W> {
                     format!(
                         "the firmware did not settle at t = {t_us} µs (executor idle: {}, \
                          laser {}/{} read, host {}/{} read)",
-                        self.board.executor.idle_epoch().is_some(),
-                        self.laser.board.read(),
+                        board.executor.idle_epoch().is_some(),
+                        self.laser.board.as_ref().map_or(0, |b| b.read()),
                         self.laser.written,
                         self.host_end.read,
-                        self.host_end.board.written(),
+                        self.host_end.board.as_ref().map_or(0, |b| b.written()),
                     ),
                 ));
             }
@@ -365,7 +477,7 @@ impl<'c, W: World> Engine<'c, W> {
         let t_s = t_us as f64 * 1e-6;
         let truth = self.sensors.trajectory.pose_at(t_s);
         self.sensors.lms.set_pose(truth.sensor_pose());
-        self.sensors.gps.set_truth_state(gps_truth(&truth));
+        self.start_gps_replay(t_us);
         let outage = !self.sensors.gps_has_sky || self.faults.gps_outage_at(t_s);
         if outage != self.in_outage {
             self.in_outage = outage;
@@ -373,6 +485,17 @@ impl<'c, W: World> Engine<'c, W> {
             if outage && self.sensors.gps_has_sky {
                 self.events.gps_outages += 1;
             }
+        }
+        match &mut self.gps_replay {
+            Some(replay) => {
+                // The recording says whether there is a fix; an injected outage overrides it.
+                replay.apply(&mut self.sensors.gps, t_us);
+                if outage {
+                    self.sensors.gps.set_fix(false);
+                }
+            }
+            None if self.sensors.gps_log.is_some() => self.sensors.gps.set_fix(false),
+            None => self.sensors.gps.set_truth_state(gps_truth(&truth)),
         }
         if let Some(until_us) = self.unplugged_until_us
             && t_us >= until_us
@@ -401,14 +524,46 @@ impl<'c, W: World> Engine<'c, W> {
             }
         }
         let runs = self.sensors.gps.poll_output_runs(t_us);
-        let board_baud = self.gps_end.board_baud()?;
         for run in runs {
+            self.gps_end.follow_baud(run.baud)?;
+            let board_baud = self.gps_end.board_baud()?;
             let heard = garble(&run.bytes, run.baud, board_baud);
             let damaged = self.gps_faults.apply(&heard);
             self.gps_end.write(&damaged)?;
             wrote |= !damaged.is_empty();
         }
+        // Listen at the rate the laser now listens at.
+        self.laser.follow_baud(self.sensors.lms.baud())?;
         Ok(wrote)
+    }
+
+    /// Starts the recorded GPS fixes once the laser has sent its first recorded scan.
+    fn start_gps_replay(&mut self, t_us: u64) {
+        if self.gps_replay.is_some()
+            || self
+                .sensors
+                .lms
+                .replay_progress()
+                .is_none_or(|p| p.scans_sent == 0)
+        {
+            return;
+        }
+        let Some((fixes, first_scan_s)) = self.sensors.gps_log.take() else {
+            return;
+        };
+        // Fixes before the first scan are left out; the rest keep their offsets to it.
+        let fixes: Vec<LocalGpsFix> = fixes
+            .into_iter()
+            .filter(|f| f.t_s >= first_scan_s)
+            .collect();
+        let lead_s = fixes.first().map_or(0.0, |f| f.t_s - first_scan_s);
+        self.gps_replay = Some(GpsReplay::new(
+            fixes,
+            GpsReplayOptions {
+                start_us: t_us + (lead_s * 1e6).round() as u64,
+                ..GpsReplayOptions::default()
+            },
+        ));
     }
 
     fn emit_laser(&mut self, t_us: u64, truth: &RobotState) -> io::Result<bool> {
@@ -427,6 +582,7 @@ impl<'c, W: World> Engine<'c, W> {
         sent_baud: u32,
         truth: &RobotState,
     ) -> io::Result<bool> {
+        self.laser.follow_baud(sent_baud)?;
         let board_baud = self.laser.board_baud()?;
         let bytes = match segment {
             Segment::Other(bytes) => {
@@ -500,6 +656,7 @@ impl<'c, W: World> Engine<'c, W> {
                     .get(self.next_replug)
                     .map(|&s| s_to_us(s)),
                 self.unplugged_until_us,
+                self.gps_replay.as_ref().and_then(GpsReplay::next_change_us),
                 Some(duration_us),
             ];
             for at in scheduled.into_iter().flatten() {
@@ -508,7 +665,9 @@ impl<'c, W: World> Engine<'c, W> {
                 }
             }
         }
-        if let Some(at) = self.clock.next_timer_us() {
+        if let Wiring::LockStep { clock, .. } = &self.wiring
+            && let Some(at) = clock.next_timer_us()
+        {
             next = next.min(at);
         }
         next.max(t_us + 1)

@@ -34,14 +34,18 @@ use protocol::RangeUnit;
 
 use crate::board::{self, BoardConfig};
 use crate::emulators::{
-    BeamMapping, GpsEmulator, GpsEmulatorOptions, Lms2xx, Lms2xxOptions, ReplayPace,
+    BeamMapping, GpsEmulator, GpsEmulatorOptions, Lms2xx, Lms2xxOptions, RecordedScan, ReplayPace,
 };
 use crate::faults::FaultSpec;
 use crate::pty::PtyLink;
-use crate::replay::{CarmenLog, recorded_scans};
+use crate::replay::{
+    CarmenLog, LocalGpsFix, TreeScanOptions, VictoriaPark, capture_scans, recorded_scans,
+    tree_scans,
+};
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
-use engine::{Endpoint, Engine, Sensors};
+pub use engine::Line;
+use engine::{Endpoint, Engine, Sensors, Wiring};
 use estimator::Estimator;
 use host_side::{HostSide, ScanRecord};
 pub use summary::RunSummary;
@@ -61,6 +65,61 @@ pub struct RunOptions {
     pub out: PathBuf,
     /// Pace the run at the wall clock.
     pub realtime: bool,
+    /// Drive a flashed board on these serial ports instead of the firmware in this process.
+    pub hardware: Option<HardwarePorts>,
+}
+
+/// The serial ports of a flashed board (`--hardware`): the emulators write to the laser and
+/// GPS lines, the host reads the link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HardwarePorts {
+    /// The port wired to the board's laser UART (RS-422 side).
+    pub laser: PathBuf,
+    /// The port wired to the board's GPS UART.
+    pub gps: PathBuf,
+    /// The board's host link (USB CDC-ACM, e.g. `/dev/ttyACM0`, or a UART adapter).
+    pub host: PathBuf,
+    /// The rate the board's GPS UART listens at (the board's default is 9600 Bd).
+    pub gps_baud: u32,
+}
+
+/// Baud rate of the board's host link with a UART (USB CDC-ACM ignores it).
+const HOST_LINK_BAUD: u32 = 921_600;
+/// The laser's rate at power-up.
+const LASER_POWER_UP_BAUD: u32 = 9_600;
+
+/// The three lines to a board that the engine cannot observe, open.
+pub struct WallLines {
+    /// To the board's laser UART.
+    pub laser: Line,
+    /// To the board's GPS UART.
+    pub gps: Line,
+    /// The board's host link.
+    pub host: Line,
+    /// The rate the board's GPS UART listens at.
+    pub gps_baud: u32,
+}
+
+impl WallLines {
+    /// Opens the ports of `ports`: the laser line at the sensor's power-on rate, the GPS line
+    /// at `ports.gps_baud`.
+    ///
+    /// # Errors
+    /// A port that cannot be opened, named.
+    pub fn open(ports: &HardwarePorts) -> io::Result<WallLines> {
+        let open = |path: &Path, baud: u32| {
+            serialport::new(path.to_string_lossy(), baud)
+                .open_native()
+                .map(Line::Port)
+                .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))
+        };
+        Ok(WallLines {
+            laser: open(&ports.laser, LASER_POWER_UP_BAUD)?,
+            gps: open(&ports.gps, ports.gps_baud)?,
+            host: open(&ports.host, HOST_LINK_BAUD)?,
+            gps_baud: ports.gps_baud,
+        })
+    }
 }
 
 /// Runs the chain and writes the outputs; returns the summary.
@@ -68,6 +127,16 @@ pub struct RunOptions {
 /// # Errors
 /// When a pty cannot be opened, the firmware hangs, or an output cannot be written.
 pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
+    let lines = options.hardware.as_ref().map(WallLines::open).transpose()?;
+    run_on(options, lines)
+}
+
+/// As [`run`], driving a board through `lines` on the wall clock when given (whatever
+/// `options.hardware` says), else the firmware in this process, lock-step.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_on(options: &RunOptions, lines: Option<WallLines>) -> io::Result<RunSummary> {
     check_duration(options.duration_s)?;
     fs::create_dir_all(&options.out)?;
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
@@ -87,6 +156,7 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
         trajectory: scenario.trajectory().clone(),
         gps_has_sky: outdoor,
         scan_truth: None,
+        gps_log: None,
         // Outdoors the features are far: 80 m (cm) mode; indoors mm resolution.
         unit: if outdoor {
             RangeUnit::Cm
@@ -95,7 +165,7 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
         },
         pixel_m: if outdoor { 0.1 } else { 0.05 },
     };
-    let (summary, records) = execute(chain, options, options.duration_s)?;
+    let (summary, records) = execute(chain, options, options.duration_s, lines)?;
     write_outputs(&options.out, &records, &summary)?;
     scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(
         options.out.join("landmarks.tsv"),
@@ -106,14 +176,46 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
     Ok(summary)
 }
 
+/// A recording to turn back into sensor byte streams.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReplaySource {
+    /// A CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` too): its scans' ranges. The truth is
+    /// the pose the log records with each scan.
+    Carmen(PathBuf),
+    /// The Victoria Park directory (`measurements.dat`, `gps.dat`, `inputs.dat`): laser scans
+    /// rebuilt from the tree detections and the recorded GPS fixes as NMEA. The truth is the
+    /// GPS position at each scan (heading along the GPS track).
+    Victoria(PathBuf),
+    /// A raw sensor → host capture at the given baud rate: its scan telegrams, byte for byte
+    /// (damaged ones too). No truth.
+    Capture {
+        /// The capture file.
+        path: PathBuf,
+        /// The rate it was recorded at (it times the telegrams at the recorded pace).
+        baud: u32,
+    },
+}
+
+impl std::fmt::Display for ReplaySource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReplaySource::Carmen(path) => write!(f, "CARMEN log {}", path.display()),
+            ReplaySource::Victoria(path) => write!(f, "Victoria Park {}", path.display()),
+            ReplaySource::Capture { path, baud } => {
+                write!(f, "capture {} at {baud} Bd", path.display())
+            }
+        }
+    }
+}
+
 /// What to replay.
 #[derive(Debug, Clone)]
 pub struct ReplayOptions {
-    /// A CARMEN log (FLASER / ROBOTLASER1 lines; `.gz` too).
-    pub carmen: PathBuf,
+    /// The recording.
+    pub source: ReplaySource,
     /// At the log's pace, or one scan per scan period.
     pub pace: ReplayPace,
-    /// The range the log writes for "no return", m (81.83 for Intel, 50 for ACES); ranges
+    /// The range a CARMEN log writes for "no return", m (81.83 for Intel, 50 for ACES); ranges
     /// at or above it become the sensor's no-return code.
     pub no_return_from_m: Option<f64>,
     /// Seed of the faults.
@@ -124,40 +226,126 @@ pub struct ReplayOptions {
     pub out: PathBuf,
     /// Pace the run at the wall clock.
     pub realtime: bool,
+    /// Drive a flashed board on these serial ports instead of the firmware in this process.
+    pub hardware: Option<HardwarePorts>,
 }
 
 /// Bring-up of the emulated laser before it streams, s (measured: about 3 s).
 const BRING_UP_ALLOWANCE_S: f64 = 5.0;
 
-/// Replays a CARMEN log's scans through the chain: the emulated LMS is brought up by the
-/// firmware as usual, then streams the recorded ranges. The truth written beside the estimate
-/// is the pose the log records with each scan.
+/// The scans, their truth and the GPS of a recording.
+struct Recording {
+    scans: Vec<RecordedScan>,
+    truth: Vec<RobotState>,
+    gps: Option<(Vec<LocalGpsFix>, f64)>,
+    unit: RangeUnit,
+}
+
+fn invalid_data(e: impl std::fmt::Display) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, e.to_string())
+}
+
+fn read_recording(options: &ReplayOptions) -> io::Result<Recording> {
+    match &options.source {
+        ReplaySource::Carmen(path) => {
+            let log = CarmenLog::read(path).map_err(invalid_data)?;
+            let truth = log
+                .lasers()
+                .map(|l| RobotState {
+                    x_m: l.robot_pose.x_m,
+                    y_m: l.robot_pose.y_m,
+                    theta_rad: l.robot_pose.theta_rad,
+                    ..RobotState::default()
+                })
+                .collect();
+            Ok(Recording {
+                scans: recorded_scans(&log, options.no_return_from_m),
+                truth,
+                gps: None,
+                unit: RangeUnit::Cm,
+            })
+        }
+        ReplaySource::Victoria(dir) => {
+            let park = VictoriaPark::read_dir(dir).map_err(invalid_data)?;
+            let scans = tree_scans(&park.scans, &TreeScanOptions::default());
+            let truth = park
+                .scans
+                .iter()
+                .map(|s| gps_truth_at(&park.gps, s.t_s))
+                .collect();
+            let first_scan_s = park.scans.first().map_or(0.0, |s| s.t_s);
+            Ok(Recording {
+                scans,
+                truth,
+                gps: Some((park.gps, first_scan_s)),
+                unit: RangeUnit::Cm,
+            })
+        }
+        ReplaySource::Capture { path, baud } => {
+            let bytes = fs::read(path)
+                .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+            let scans = capture_scans(&bytes, *baud);
+            let truth = vec![RobotState::default(); scans.len()];
+            Ok(Recording {
+                scans,
+                truth,
+                gps: None,
+                unit: RangeUnit::Mm,
+            })
+        }
+    }
+}
+
+/// The robot's pose at `t_s` from recorded GPS fixes: the position interpolated between the
+/// fixes around it, the heading along the track between them (east = x, north = y).
+fn gps_truth_at(fixes: &[LocalGpsFix], t_s: f64) -> RobotState {
+    let after = fixes.partition_point(|f| f.t_s <= t_s);
+    let (a, b) = match (
+        after.checked_sub(1).and_then(|i| fixes.get(i)),
+        fixes.get(after),
+    ) {
+        (Some(a), Some(b)) => (a, b),
+        (Some(a), None) => (a, a),
+        (None, Some(b)) => (b, b),
+        (None, None) => return RobotState::default(),
+    };
+    let span_s = b.t_s - a.t_s;
+    let w = if span_s > 0.0 {
+        (t_s - a.t_s) / span_s
+    } else {
+        0.0
+    };
+    RobotState {
+        x_m: a.x_m + w * (b.x_m - a.x_m),
+        y_m: a.y_m + w * (b.y_m - a.y_m),
+        theta_rad: (b.y_m - a.y_m).atan2(b.x_m - a.x_m),
+        ..RobotState::default()
+    }
+}
+
+/// Replays a recording's scans (and GPS) through the chain: the emulated LMS is brought up by
+/// the firmware as usual, then streams the recorded scans. The truth written beside the
+/// estimate is the recording's own (see [`ReplaySource`]).
 ///
 /// # Errors
-/// When the log cannot be read, a pty cannot be opened, the firmware hangs, or an output
-/// cannot be written.
-pub fn replay_carmen(options: &ReplayOptions) -> io::Result<RunSummary> {
-    let log = CarmenLog::read(&options.carmen)
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
-    let scans = recorded_scans(&log, options.no_return_from_m);
-    let Some(first) = scans.first() else {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!("{}: no laser records", options.carmen.display()),
-        ));
+/// When the recording cannot be read or holds no scan, a port cannot be opened, the firmware
+/// hangs, or an output cannot be written.
+pub fn replay(options: &ReplayOptions) -> io::Result<RunSummary> {
+    let lines = options.hardware.as_ref().map(WallLines::open).transpose()?;
+    replay_on(options, lines)
+}
+
+/// As [`replay`], driving a board through `lines` on the wall clock when given.
+///
+/// # Errors
+/// As [`replay`].
+pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Result<RunSummary> {
+    let recording = read_recording(options)?;
+    let scans = recording.scans;
+    let (Some(first), Some(last)) = (scans.first(), scans.last()) else {
+        return Err(invalid_data(format!("{}: no laser scans", options.source)));
     };
-    let span_s = scans
-        .last()
-        .map_or(0.0, |l| l.timestamp_s - first.timestamp_s);
-    let truth: Vec<RobotState> = log
-        .lasers()
-        .map(|l| RobotState {
-            x_m: l.robot_pose.x_m,
-            y_m: l.robot_pose.y_m,
-            theta_rad: l.robot_pose.theta_rad,
-            ..RobotState::default()
-        })
-        .collect();
+    let span_s = last.timestamp_s - first.timestamp_s;
     // One scan per 0.5° period (26.7 ms) as fast as possible.
     let stream_s = match options.pace {
         ReplayPace::Recorded => span_s,
@@ -176,10 +364,15 @@ pub fn replay_carmen(options: &ReplayOptions) -> io::Result<RunSummary> {
         lms,
         datum: GeoDatum::default(),
         trajectory: Trajectory::from_samples(1.0, vec![RobotState::default()]),
-        gps_has_sky: false,
-        scan_truth: Some(truth),
-        unit: RangeUnit::Cm,
-        pixel_m: 0.05,
+        gps_has_sky: recording.gps.is_some(),
+        scan_truth: Some(recording.truth),
+        gps_log: recording.gps,
+        unit: recording.unit,
+        pixel_m: if matches!(options.source, ReplaySource::Victoria(_)) {
+            0.1
+        } else {
+            0.05
+        },
     };
     let run_options = RunOptions {
         world: WorldKind::Indoor,
@@ -188,9 +381,10 @@ pub fn replay_carmen(options: &ReplayOptions) -> io::Result<RunSummary> {
         faults: options.faults.clone(),
         out: options.out.clone(),
         realtime: options.realtime,
+        hardware: options.hardware.clone(),
     };
-    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s)?;
-    summary.world = format!("replay of {}", options.carmen.display());
+    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s, lines)?;
+    summary.world = format!("replay of {}", options.source);
     write_outputs(&options.out, &records, &summary)?;
     Ok(summary)
 }
@@ -202,6 +396,7 @@ struct Chain {
     trajectory: Trajectory,
     gps_has_sky: bool,
     scan_truth: Option<Vec<RobotState>>,
+    gps_log: Option<(Vec<LocalGpsFix>, f64)>,
     unit: RangeUnit,
     pixel_m: f64,
 }
@@ -217,21 +412,58 @@ fn check_duration(duration_s: f64) -> io::Result<()> {
     }
 }
 
-/// Wires `chain` to the firmware through ptys and runs it for `duration_s` virtual seconds.
+/// Wires `chain` to the firmware through ptys and runs it for `duration_s` virtual seconds,
+/// or, given `lines`, to a board on those lines for `duration_s` wall-clock seconds.
 fn execute(
     chain: Chain,
     options: &RunOptions,
     duration_s: f64,
+    lines: Option<WallLines>,
 ) -> io::Result<(RunSummary, Vec<ScanRecord>)> {
-    let clock = VirtualClock::begin();
-    let laser_link = PtyLink::open()?;
-    let gps_link = PtyLink::open()?;
-    let host_link = PtyLink::open()?;
-    let gps_options = GpsEmulatorOptions {
+    let mut gps_options = GpsEmulatorOptions {
         seed: options.seed ^ 0x6750,
         datum: chain.datum,
         ..GpsEmulatorOptions::default()
     };
+    if let Some(lines) = &lines {
+        gps_options.baud = lines.gps_baud;
+        gps_options.rate_hz = gps_rate_for(lines.gps_baud);
+    }
+    let sensors = Sensors {
+        lms: chain.lms,
+        gps: GpsEmulator::new(gps_options.clone()),
+        trajectory: chain.trajectory,
+        gps_has_sky: chain.gps_has_sky,
+        scan_truth: chain.scan_truth,
+        gps_log: chain.gps_log,
+    };
+    let host = HostSide::new(Estimator::new(chain.pixel_m));
+    let duration_us = (duration_s * 1e6).round() as u64;
+    let wall = std::time::Instant::now();
+    if let Some(lines) = lines {
+        let endpoints = (
+            Endpoint::wall(lines.laser),
+            Endpoint::wall(lines.gps),
+            Endpoint::wall(lines.host),
+        );
+        let mut engine = Engine::new(
+            Wiring::Wall,
+            endpoints,
+            sensors,
+            options.faults.clone(),
+            options.seed,
+            host,
+            true,
+        );
+        engine.run(duration_us)?;
+        let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
+        return Ok((summary, std::mem::take(&mut engine.host.records)));
+    }
+
+    let clock = VirtualClock::begin();
+    let laser_link = PtyLink::open()?;
+    let gps_link = PtyLink::open()?;
+    let host_link = PtyLink::open()?;
     let mut laser_config = BringUpConfig::default();
     laser_config.laser.unit = chain.unit;
     let board = board::spawn(BoardConfig {
@@ -247,18 +479,11 @@ fn execute(
         Endpoint::new(gps_link, board.gps_port.clone()),
         Endpoint::new(host_link, board.host_port.clone()),
     );
-    let sensors = Sensors {
-        lms: chain.lms,
-        gps: GpsEmulator::new(gps_options),
-        trajectory: chain.trajectory,
-        gps_has_sky: chain.gps_has_sky,
-        scan_truth: chain.scan_truth,
-    };
-    let host = HostSide::new(Estimator::new(chain.pixel_m));
-    let wall = std::time::Instant::now();
     let mut engine = Engine::new(
-        &clock,
-        board.clone(),
+        Wiring::LockStep {
+            clock: &clock,
+            board: board.clone(),
+        },
         endpoints,
         sensors,
         options.faults.clone(),
@@ -266,11 +491,17 @@ fn execute(
         host,
         options.realtime,
     );
-    let outcome = engine.run((duration_s * 1e6).round() as u64);
+    let outcome = engine.run(duration_us);
     board.stop();
     outcome?;
     let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
     Ok((summary, std::mem::take(&mut engine.host.records)))
+}
+
+/// GPS epochs per second that fit a line at `baud` (an epoch of five sentences is about
+/// 400 bytes, 4 000 bits with start and stop bits), 1–10.
+fn gps_rate_for(baud: u32) -> u32 {
+    (baud / 4_000).clamp(1, 10)
 }
 
 fn write_outputs(out: &Path, records: &[ScanRecord], summary: &RunSummary) -> io::Result<()> {

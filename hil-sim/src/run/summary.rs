@@ -141,7 +141,7 @@ impl RunSummary {
             gps_fixes_emitted: u64::from(engine.sensors().gps.counters().fixes),
             gps_fixes_delivered: host.fixes_with_position,
             frames_lost_on_link: link.lost,
-            panics: engine.board().executor.panics(),
+            panics: engine.panics(),
             accounting_balanced: intact + rejected == emitted,
             world: options.world.to_string(),
             seed: options.seed,
