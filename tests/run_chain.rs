@@ -184,3 +184,40 @@ fn carmen_log_replays_through_the_chain() {
     let truth = read_poses(&out.join("ground_truth.tsv"));
     assert_eq!(truth.len() as u64, summary.telegrams_delivered_intact);
 }
+
+fn replay_capture(name: &str) -> Option<RunSummary> {
+    let file = format!("benchmark/lms200/{name}.lms-to-host.bin");
+    let path = datasets::require(&file, "raw_captures_replay_byte_for_byte")?;
+    let options = hil_sim::run::ReplayOptions {
+        source: hil_sim::run::ReplaySource::Capture { path, baud: 38_400 },
+        pace: hil_sim::emulators::ReplayPace::AsFastAsPossible,
+        no_return_from_m: None,
+        seed: 1,
+        faults: FaultSpec::default(),
+        out: out_dir(name),
+        realtime: false,
+        hardware: None,
+    };
+    Some(hil_sim::run::replay(&options).expect("replay"))
+}
+
+#[test]
+fn raw_captures_replay_byte_for_byte() {
+    // A clean AtlasBuggy session: every scan telegram of the capture arrives intact.
+    let Some(summary) = replay_capture("2017_Aug_05_18-52-56") else {
+        return;
+    };
+    assert_accounted(&summary);
+    assert_eq!(summary.telegrams_emitted, 165);
+    assert_eq!(summary.telegrams_delivered_intact, 165);
+    // A session whose one scan was read out of step when it was recorded: it goes out as
+    // recorded, and the firmware counts it (CRC error, scan missed).
+    let Some(summary) = replay_capture("2017_Aug_05_19-07-55") else {
+        return;
+    };
+    assert!(summary.accounting_balanced, "{summary:#?}");
+    assert_eq!(summary.telegrams_emitted, 1);
+    assert_eq!(summary.telegrams_delivered_intact, 0);
+    assert_eq!(summary.counted.firmware_laser_crc_errors, 1);
+    assert_eq!(summary.counted.firmware_scans_missed, 1);
+}
