@@ -1,8 +1,16 @@
 //! Host software for the robot computer: the board link and its time base.
 //!
+//! * [`evaluation`]: trajectory accuracy on ground-truth relations (Kümmerle et al. 2009).
+//! * [`grid`]: occupancy-grid submaps, ray insertion, sub-cell scan refinement and map export.
 //! * [`link`]: reading the board's frames from a serial port, counting every lost frame,
 //!   and mapping board time to host time.
+//! * [`pose_graph`]: a 2D pose graph optimised by sparse Levenberg–Marquardt, with robust
+//!   kernels for loop closures.
 //! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
 
+pub mod evaluation;
+pub mod grid;
 pub mod link;
+pub mod pose_graph;
 pub mod scan_match;
+pub mod slam;
