@@ -1,5 +1,6 @@
 //! hil-sim: runs the firmware logic on the host against real captures and emulated sensors.
 
+pub mod bench_match;
 pub mod board;
 pub mod decode_nmea;
 pub mod decode_sick;
@@ -12,4 +13,5 @@ pub mod pty;
 pub mod replay;
 pub mod run;
 pub mod sim_time;
+pub mod slam_replay;
 pub mod world;

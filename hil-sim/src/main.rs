@@ -93,6 +93,49 @@ enum Command {
         #[command(flatten)]
         hardware: HardwareArgs,
     },
+    /// Occupancy-grid SLAM over a CARMEN laser log: local tracking against submaps, loop
+    /// closure with the exact raster matcher, a pose graph; the map exported.
+    ///
+    /// Writes OUT/trajectory.tsv (one line per scan: the log's timestamp as printed, then
+    /// `x_m y_m theta_rad`), OUT/map.pgm + OUT/map.yaml (ROS map_server) and OUT/map.png, and
+    /// OUT/summary.json (`scans`, `wall_s`, `scans_per_second`, and the error on the relations
+    /// given, Kümmerle et al. 2009). LOG.relations and LOG.reference.tsv beside the log (LOG
+    /// without its extension) are used when present.
+    ReplayCarmen {
+        /// The CARMEN log (FLASER / ROBOTLASER1; `.gz` is read too).
+        log: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "slam-out")]
+        out: PathBuf,
+        /// `none` ignores every pose in the log (laser only); `log` uses them as odometry.
+        /// Laser-only logs (every pose zero) must be run with `none`.
+        #[arg(long, default_value = "log", value_parser = ["log", "none"])]
+        odometry: String,
+        /// Ranges at or above this are "no return", m (the logs write their maximum).
+        #[arg(long, default_value_t = 80.0)]
+        no_return_from_m: f64,
+        /// Ground-truth relations (`t1 t2 x y z roll pitch yaw`) to measure the error on
+        /// [default: LOG.relations when present].
+        #[arg(long)]
+        relations: Option<PathBuf>,
+        /// A reference trajectory (`timestamp x y theta`) for consecutive and revisit
+        /// relations [default: LOG.reference.tsv when present].
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        /// Disable loop closure (local tracking only).
+        #[arg(long)]
+        no_loop_closure: bool,
+    },
+    /// Match consecutive scan pairs of a CARMEN log with the reference raster matcher and the
+    /// fast matcher on the same table; prints per-pair timings on stderr and, as the last
+    /// line on stdout, `{"pairs":N,"identical":K,"reference_s":…,"fast_s":…}`.
+    BenchMatch {
+        /// The CARMEN log.
+        log: PathBuf,
+        /// Scan pairs to match (scan k against scan k + 1).
+        #[arg(long, default_value_t = 100)]
+        pairs: usize,
+    },
     /// Decode a raw SICK LMS2xx -> host byte stream with the firmware's telegram receiver.
     ///
     /// Prints one JSON object per valid scan telegram on stdout
@@ -189,6 +232,40 @@ fn replay(options: hil_sim::run::ReplayOptions) -> Result<(), Box<dyn std::error
     report(&summary, &options.out)
 }
 
+fn replay_carmen(
+    options: hil_sim::slam_replay::SlamReplayOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let summary = hil_sim::slam_replay::replay_carmen_slam(&options)?;
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    eprintln!(
+        "hil-sim: {} scans in {:.3} s ({:.0} scans/s); outputs in {}",
+        summary.scans,
+        summary.wall_s,
+        summary.scans_per_second,
+        options.out.display()
+    );
+    Ok(())
+}
+
+fn bench_match(log: &std::path::Path, pairs: usize) -> Result<(), Box<dyn std::error::Error>> {
+    let options = hil_sim::bench_match::BenchMatchOptions {
+        pairs,
+        ..Default::default()
+    };
+    let report = hil_sim::bench_match::bench_match(log, &options)?;
+    for pair in &report.details.pair_results {
+        eprintln!(
+            "scan {}: reference {:.4} s, fast {:.6} s, identical {}",
+            pair.reference_scan,
+            pair.reference_s,
+            pair.fast_s,
+            pair.identical()
+        );
+    }
+    println!("{}", serde_json::to_string(&report)?);
+    Ok(())
+}
+
 fn report(
     summary: &hil_sim::run::RunSummary,
     out: &std::path::Path,
@@ -266,6 +343,32 @@ fn main() -> ExitCode {
                 hardware: hardware.ports(),
             })
         }
+        Command::ReplayCarmen {
+            log,
+            out,
+            odometry,
+            no_return_from_m,
+            relations,
+            reference,
+            no_loop_closure,
+        } => {
+            let beside = |suffix: &str| {
+                let path = log.with_extension(suffix);
+                path.exists().then_some(path)
+            };
+            let mut slam = host::slam::SlamOptions::default();
+            slam.loop_closure.enabled = !no_loop_closure;
+            replay_carmen(hil_sim::slam_replay::SlamReplayOptions {
+                relations: relations.or_else(|| beside("relations")),
+                reference: reference.or_else(|| beside("reference.tsv")),
+                log,
+                out,
+                odometry: odometry == "log",
+                no_return_from_m,
+                slam,
+            })
+        }
+        Command::BenchMatch { log, pairs } => bench_match(&log, pairs),
         Command::DecodeSick { file } => hil_sim::decode_sick::run(&file),
         Command::DecodeNmea { file } => hil_sim::decode_nmea::run(&file),
         Command::Demo {

@@ -1,0 +1,260 @@
+//! `hil-sim replay-carmen`: the occupancy-grid SLAM ([`host::slam`]) over a CARMEN laser log,
+//! its map exported, and its accuracy measured on ground-truth relations when they are given.
+//!
+//! Outputs in the output directory:
+//!
+//! * `trajectory.tsv`: one line per scan, the log's timestamp exactly as printed, then
+//!   `x_m y_m theta_rad` of the optimised pose (map frame: the first scan's pose);
+//! * `map.pgm`, `map.yaml` (the ROS `map_server` format) and `map.png`: the global occupancy
+//!   grid, every scan inserted at its optimised pose;
+//! * `summary.json`: `scans`, `wall_s` (the SLAM's own time: tracking, loop closure, pose
+//!   graph, not reading the log or writing the map), `scans_per_second`, what the pipeline
+//!   did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
+//!   2009).
+
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use host::evaluation::{
+    PairingOptions, ReferenceRelationOptions, ReferenceRelations, Relation, RelationEvaluation,
+    StampedPose, Trajectory, evaluate_relations,
+};
+use host::grid::{MapExport, MapExportOptions};
+use host::scan_match::{Pose2, Scan};
+use host::slam::{GraphSlam, SlamOptions, SlamStats};
+use serde::Serialize;
+
+use crate::replay::{CarmenLog, LaserRecord, LogError, read_reference, read_relations};
+
+/// Cell size of the exported map, metres.
+const MAP_RESOLUTION_M: f64 = 0.05;
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct SlamReplayOptions {
+    /// The CARMEN log.
+    pub log: PathBuf,
+    /// Where the outputs go (created if missing).
+    pub out: PathBuf,
+    /// Use the poses the log records as odometry; `false` ignores every pose in the log.
+    pub odometry: bool,
+    /// Ranges at or above this are no return, metres (the logs write their maximum, e.g.
+    /// 81.83 m for Intel, for "no echo").
+    pub no_return_from_m: f64,
+    /// Ground-truth relations to evaluate against (`t1 t2 x y z roll pitch yaw`).
+    pub relations: Option<PathBuf>,
+    /// A reference trajectory (`timestamp x y theta`) to build consecutive and revisit
+    /// relations from.
+    pub reference: Option<PathBuf>,
+    /// The SLAM's options.
+    pub slam: SlamOptions,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SlamReplaySummary {
+    /// Scans in the log, each with a pose.
+    pub scans: usize,
+    /// Seconds the SLAM took.
+    pub wall_s: f64,
+    /// `scans / wall_s`.
+    pub scans_per_second: f64,
+    /// The log.
+    pub log: String,
+    /// Whether the log's poses were used as odometry.
+    pub odometry: bool,
+    /// What the pipeline did.
+    pub slam: SlamStats,
+    /// Error on the given relations, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relations: Option<RelationEvaluation>,
+    /// Error on relations between consecutive scans of the reference, if given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_consecutive: Option<RelationEvaluation>,
+    /// Error on revisits of the reference (scans at least 50 apart within 2 m and 45°).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_revisits: Option<RelationEvaluation>,
+}
+
+/// Why a replay failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SlamReplayError {
+    /// A log, relations or reference file could not be read.
+    #[error(transparent)]
+    Log(#[from] LogError),
+    /// The log holds no laser scan.
+    #[error("{0}: no laser scans")]
+    NoScans(PathBuf),
+    /// Odometry asked for, but the log has none.
+    #[error("{0}: every pose in the log is zero (a laser-only log): run it with --odometry none")]
+    NoOdometry(PathBuf),
+    /// The SLAM options are invalid.
+    #[error("invalid SLAM options: {0}")]
+    Options(#[from] host::scan_match::ScanMatchError),
+    /// An output could not be written.
+    #[error("{path}: {source}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        source: io::Error,
+    },
+}
+
+/// The beam end points of `laser` in the robot frame; ranges at or above `no_return_from_m`
+/// (or not positive) have no return.
+pub fn scan_of(laser: &LaserRecord, no_return_from_m: f64) -> Scan {
+    let ranges_m: Vec<f64> = laser
+        .ranges_m
+        .iter()
+        .map(|&r| if r < no_return_from_m { r } else { f64::NAN })
+        .collect();
+    Scan::from_ranges(
+        &ranges_m,
+        laser.start_angle_rad,
+        laser.resolution_rad,
+        f64::INFINITY,
+    )
+}
+
+/// Runs the SLAM over the log and writes the outputs.
+///
+/// # Errors
+/// See [`SlamReplayError`].
+pub fn replay_carmen_slam(
+    options: &SlamReplayOptions,
+) -> Result<SlamReplaySummary, SlamReplayError> {
+    let log = CarmenLog::read(&options.log)?;
+    let lasers: Vec<&LaserRecord> = log.lasers().collect();
+    if lasers.is_empty() {
+        return Err(SlamReplayError::NoScans(options.log.clone()));
+    }
+    let odometry_is_zero = lasers.iter().all(|l| {
+        let p = l.robot_pose;
+        p.x_m == 0.0 && p.y_m == 0.0 && p.theta_rad == 0.0
+    });
+    if options.odometry && odometry_is_zero {
+        return Err(SlamReplayError::NoOdometry(options.log.clone()));
+    }
+    let scans: Vec<Scan> = lasers
+        .iter()
+        .map(|l| scan_of(l, options.no_return_from_m))
+        .collect();
+
+    let started = Instant::now();
+    let mut slam = GraphSlam::new(options.slam.clone())?;
+    for (laser, scan) in lasers.iter().zip(&scans) {
+        let odometry = options.odometry.then(|| {
+            let p = laser.robot_pose;
+            Pose2::new(p.x_m, p.y_m, p.theta_rad)
+        });
+        slam.add_scan(scan, odometry);
+    }
+    let result = slam.finish();
+    let wall_s = started.elapsed().as_secs_f64();
+
+    let write_error = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| SlamReplayError::Write { path, source }
+    };
+    fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
+    let trajectory_path = options.out.join("trajectory.tsv");
+    write_trajectory(&trajectory_path, &lasers, &result.poses_in_map)
+        .map_err(write_error(&trajectory_path))?;
+    // The map holds the beams the SLAM trusted.
+    let max_range_m = options.slam.max_range_m;
+    let trusted: Vec<Scan> = scans
+        .iter()
+        .map(|scan| {
+            Scan::from_points_in_robot(
+                scan.points_in_robot()
+                    .iter()
+                    .map(|p| p.filter(|p| p[0].hypot(p[1]) <= max_range_m))
+                    .collect(),
+            )
+        })
+        .collect();
+    let grid = result.global_grid(&trusted, MAP_RESOLUTION_M);
+    let export = MapExport::from_grid(&grid, &MapExportOptions::default());
+    for (name, save) in [
+        (
+            "map.pgm",
+            MapExport::save_pgm as fn(&MapExport, &Path) -> io::Result<()>,
+        ),
+        ("map.png", MapExport::save_png),
+        ("map.yaml", MapExport::save_ros_map),
+    ] {
+        let path = options.out.join(name);
+        save(&export, &path).map_err(write_error(&path))?;
+    }
+
+    let trajectory: Trajectory = lasers
+        .iter()
+        .zip(&result.poses_in_map)
+        .map(|(l, pose)| StampedPose::new(l.timestamp_s, *pose))
+        .collect();
+    let pairing = PairingOptions::default();
+    let relations = match &options.relations {
+        Some(path) => {
+            let relations: Vec<Relation> = read_relations(path)?
+                .iter()
+                .map(|r| Relation::new(r.t1_s, r.t2_s, Pose2::new(r.x_m, r.y_m, r.yaw_rad)))
+                .collect();
+            Some(evaluate_relations(&relations, &trajectory, &pairing))
+        }
+        None => None,
+    };
+    let (reference_consecutive, reference_revisits) = match &options.reference {
+        Some(path) => {
+            let reference: Trajectory = read_reference(path)?
+                .iter()
+                .map(|r| {
+                    let p = r.pose;
+                    StampedPose::new(r.timestamp_s, Pose2::new(p.x_m, p.y_m, p.theta_rad))
+                })
+                .collect();
+            let built = ReferenceRelations::build(&reference, &ReferenceRelationOptions::default());
+            let (consecutive, revisits) = built.relations.split_at(built.consecutive);
+            (
+                Some(evaluate_relations(consecutive, &trajectory, &pairing)),
+                Some(evaluate_relations(revisits, &trajectory, &pairing)),
+            )
+        }
+        None => (None, None),
+    };
+
+    let summary = SlamReplaySummary {
+        scans: scans.len(),
+        wall_s,
+        scans_per_second: scans.len() as f64 / wall_s.max(1e-9),
+        log: options.log.display().to_string(),
+        odometry: options.odometry,
+        slam: result.stats,
+        relations,
+        reference_consecutive,
+        reference_revisits,
+    };
+    let summary_path = options.out.join("summary.json");
+    let json = serde_json::to_string_pretty(&summary).map_err(io::Error::other);
+    json.and_then(|json| fs::write(&summary_path, json + "\n"))
+        .map_err(write_error(&summary_path))?;
+    Ok(summary)
+}
+
+fn write_trajectory(path: &Path, lasers: &[&LaserRecord], poses: &[Pose2]) -> io::Result<()> {
+    let mut out = BufWriter::new(fs::File::create(path)?);
+    writeln!(
+        out,
+        "# timestamp x_m y_m theta_rad (map frame: the first scan's pose)"
+    )?;
+    for (laser, pose) in lasers.iter().zip(poses) {
+        writeln!(
+            out,
+            "{} {:.6} {:.6} {:.6}",
+            laser.timestamp_text, pose.x_m, pose.y_m, pose.theta_rad
+        )?;
+    }
+    out.flush()
+}

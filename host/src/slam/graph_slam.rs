@@ -1,0 +1,310 @@
+//! The whole pipeline: local tracking, loop closure and the pose graph, one scan at a time.
+
+use serde::Serialize;
+
+use super::local_tracker::LocalTracker;
+use super::loop_closer::LoopCloser;
+use super::options::SlamOptions;
+use super::slam_submap::SlamSubmap;
+use crate::grid::{ProbabilityGrid, RangeInserterOptions};
+use crate::pose_graph::{Edge, NodeId, PoseGraph, RobustKernel};
+use crate::scan_match::{Pose2, Scan, ScanMatchError};
+
+/// What happened over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SlamStats {
+    /// Scans added.
+    pub scans: usize,
+    /// Scans whose local tracking needed the wide search.
+    pub wide_searches: usize,
+    /// Submaps built.
+    pub submaps: usize,
+    /// Scan-in-submap searches for loop closure.
+    pub loop_closure_searches: usize,
+    /// Loop-closure constraints added.
+    pub loop_closures: usize,
+    /// Pose-graph optimisations run.
+    pub optimizations: usize,
+    /// Optimisations that failed (the poses were kept as they were).
+    pub failed_optimizations: usize,
+}
+
+/// The poses of every scan, optimised, and what it took.
+#[derive(Clone, Debug)]
+pub struct SlamResult {
+    /// `map_from_robot` of every scan, in the order they were added.
+    pub poses_in_map: Vec<Pose2>,
+    /// What happened.
+    pub stats: SlamStats,
+}
+
+impl SlamResult {
+    /// The global occupancy grid: every scan of `scans` (in the order they were added)
+    /// inserted at its optimised pose, with cells of `resolution_m`.
+    pub fn global_grid(&self, scans: &[Scan], resolution_m: f64) -> ProbabilityGrid {
+        ProbabilityGrid::from_scans(
+            self.poses_in_map.iter().copied().zip(scans.iter()),
+            resolution_m,
+            Default::default(),
+            RangeInserterOptions::default(),
+        )
+    }
+}
+
+/// Graph SLAM over occupancy-grid submaps. See the [module documentation](super).
+#[derive(Debug)]
+pub struct GraphSlam {
+    options: SlamOptions,
+    tracker: LocalTracker,
+    closer: LoopCloser,
+    graph: PoseGraph,
+    poses_in_local: Vec<Pose2>,
+    /// Finished submaps with their matcher references.
+    finished: Vec<(SlamSubmap, Scan)>,
+    /// `map_from_local` as of the last optimisation.
+    map_from_local: Pose2,
+    closures_since_optimization: usize,
+    stats: SlamStats,
+}
+
+impl GraphSlam {
+    /// A pipeline with `options`.
+    ///
+    /// # Errors
+    /// When the matcher options are invalid.
+    pub fn new(options: SlamOptions) -> Result<Self, ScanMatchError> {
+        Ok(GraphSlam {
+            tracker: LocalTracker::new(options.clone())?,
+            closer: LoopCloser::new(options.loop_closure.clone(), options.local.refiner)?,
+            graph: PoseGraph::new(),
+            poses_in_local: Vec::new(),
+            finished: Vec::new(),
+            map_from_local: Pose2::IDENTITY,
+            closures_since_optimization: 0,
+            stats: SlamStats::default(),
+            options,
+        })
+    }
+
+    /// Adds `scan` (end points in the robot frame), with the odometry pose at the scan when
+    /// the log has one; returns the scan's current pose in the map.
+    pub fn add_scan(&mut self, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
+        let scan = self.clip(scan);
+        let tracked = self.tracker.track(&scan, odometry);
+        self.stats.scans += 1;
+        self.stats.wide_searches += usize::from(tracked.searched);
+        let node = tracked.node;
+        let pose_in_map = self.map_from_local * tracked.pose_in_local;
+        // Node numbers follow scan order, so the graph's ids equal `node`; adding can only
+        // fail on non-finite poses, which tracking does not produce.
+        if self.graph.add_node(pose_in_map).is_ok() && node == 0 {
+            let _ = self.graph.set_fixed(NodeId(0), true);
+        }
+        if let Some(&previous) = self.poses_in_local.last() {
+            let [sigma_m, sigma_rad] = self.options.odometry_sigma;
+            let edge = Edge::new(
+                NodeId(node - 1),
+                NodeId(node),
+                previous.inverse() * tracked.pose_in_local,
+                Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
+            );
+            let _ = self.graph.add_edge(edge);
+        }
+        self.poses_in_local.push(tracked.pose_in_local);
+        if let Some(submap) = tracked.finished_submap {
+            self.stats.submaps += 1;
+            let reference = submap.reference_scan();
+            self.finished.push((submap, reference));
+        }
+        let every = self.options.loop_closure.every_n_scans.max(1);
+        if self.options.loop_closure.enabled && node % every == 0 {
+            self.close_loops(node, &scan, pose_in_map);
+        }
+        if self.closures_since_optimization > 0 {
+            self.optimize();
+        }
+        self.pose_in_map(node).unwrap_or(pose_in_map)
+    }
+
+    /// Ends the run: a last optimisation if loops were found since the previous one, and the
+    /// poses of every scan.
+    pub fn finish(mut self) -> SlamResult {
+        self.stats.submaps += self.tracker.finish().len();
+        if self.closures_since_optimization > 0 {
+            self.optimize();
+        }
+        SlamResult {
+            poses_in_map: self.graph.nodes().iter().map(|n| n.pose_in_map).collect(),
+            stats: self.stats,
+        }
+    }
+
+    /// What happened so far.
+    pub fn stats(&self) -> SlamStats {
+        self.stats
+    }
+
+    fn pose_in_map(&self, node: usize) -> Option<Pose2> {
+        self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
+    }
+
+    /// The scan without beams outside the ranges the options trust.
+    fn clip(&self, scan: &Scan) -> Scan {
+        let (min_m, max_m) = (self.options.min_range_m, self.options.max_range_m);
+        Scan::from_points_in_robot(
+            scan.points_in_robot()
+                .iter()
+                .map(|p| {
+                    p.filter(|p| {
+                        let range_m = p[0].hypot(p[1]);
+                        range_m >= min_m && range_m <= max_m
+                    })
+                })
+                .collect(),
+        )
+    }
+
+    /// Searches the finished submaps near `pose_in_map` for the scan of `node`.
+    fn close_loops(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
+        let options = self.closer.options().clone();
+        let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
+        for (index, (submap, _)) in self.finished.iter().enumerate() {
+            if submap.last_node() + options.min_scans_apart > node {
+                continue;
+            }
+            let Some(submap_in_map) = self.pose_in_map(submap.first_node()) else {
+                continue;
+            };
+            let guess = submap_in_map.inverse() * pose_in_map;
+            let distance_m = guess.x_m.hypot(guess.y_m);
+            if distance_m <= options.max_distance_m {
+                candidates.push((distance_m, index, guess));
+            }
+        }
+        candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, index, guess) in candidates {
+            let (submap, reference) = &self.finished[index];
+            self.stats.loop_closure_searches += 1;
+            let Some(closure) = self.closer.search(submap, reference, scan, guess) else {
+                continue;
+            };
+            let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
+            let edge = Edge::new(
+                NodeId(submap.first_node()),
+                NodeId(node),
+                closure.pose_in_submap,
+                Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
+            )
+            .with_kernel(RobustKernel::Huber {
+                delta: self.options.loop_closure_huber_delta,
+            });
+            if self.graph.add_edge(edge).is_ok() {
+                self.stats.loop_closures += 1;
+                self.closures_since_optimization += 1;
+            }
+        }
+    }
+
+    fn optimize(&mut self) {
+        self.closures_since_optimization = 0;
+        self.stats.optimizations += 1;
+        if self.graph.optimize(&self.options.optimize).is_err() {
+            self.stats.failed_optimizations += 1;
+            return;
+        }
+        let last = self.poses_in_local.len().saturating_sub(1);
+        if let (Some(pose_in_map), Some(pose_in_local)) =
+            (self.pose_in_map(last), self.poses_in_local.last())
+        {
+            self.map_from_local = pose_in_map * pose_in_local.inverse();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::synthetic::{WallInMap, cast_scan, polygon_walls};
+    use std::f64::consts::{FRAC_PI_2, TAU};
+
+    /// A ring corridor around a block, with alcoves and pillars that break its symmetry.
+    fn ring_walls() -> Vec<WallInMap> {
+        let mut walls = polygon_walls(&[[-6.0, -4.0], [6.0, -4.0], [6.0, 4.0], [-6.0, 4.0]]);
+        walls.extend(polygon_walls(&[
+            [-3.5, -1.5],
+            [3.5, -1.5],
+            [3.5, 1.5],
+            [-3.5, 1.5],
+        ]));
+        for (x, y) in [
+            (-5.2, 3.0),
+            (2.0, -3.3),
+            (5.3, -0.5),
+            (-1.0, 2.2),
+            (4.0, 3.3),
+        ] {
+            walls.extend(polygon_walls(&[
+                [x - 0.2, y - 0.2],
+                [x + 0.2, y - 0.2],
+                [x + 0.2, y + 0.2],
+                [x - 0.2, y + 0.2],
+            ]));
+        }
+        walls
+    }
+
+    /// Poses round the ring, counter-clockwise, about 0.25 m apart, `laps` times.
+    fn ring_trajectory(laps: f64) -> Vec<Pose2> {
+        let steps = (laps * 140.0) as usize;
+        (0..steps)
+            .map(|k| {
+                let angle = k as f64 / 140.0 * TAU;
+                let (sin, cos) = angle.sin_cos();
+                Pose2::new(4.75 * cos, 2.75 * sin, angle + FRAC_PI_2)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn tracks_a_ring_and_closes_the_loop_without_odometry() {
+        let walls = ring_walls();
+        let truth = ring_trajectory(1.3);
+        let scans: Vec<Scan> = truth
+            .iter()
+            .map(|&pose| cast_scan(&walls, pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0))
+            .collect();
+        let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
+        for scan in &scans {
+            slam.add_scan(scan, None);
+        }
+        let result = slam.finish();
+        assert_eq!(result.poses_in_map.len(), truth.len());
+        assert!(result.stats.loop_closures > 0, "{:?}", result.stats);
+        // Every pose, in the frame of the first one, against the truth.
+        let origin = truth[0].inverse();
+        let mut worst_m: f64 = 0.0;
+        for (estimate, truth) in result.poses_in_map.iter().zip(&truth) {
+            let truth_in_first = origin * *truth;
+            let error = truth_in_first.inverse() * *estimate;
+            worst_m = worst_m.max(error.x_m.hypot(error.y_m));
+        }
+        // Measured: 0.081 m worst over 33 m of noise-free scans (local tracking is the limit).
+        assert!(worst_m < 0.10, "worst position error {worst_m} m");
+    }
+
+    #[test]
+    fn odometry_is_used_when_given() {
+        let walls = ring_walls();
+        let truth = ring_trajectory(0.3);
+        let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
+        for pose in &truth {
+            let scan = cast_scan(&walls, *pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0);
+            slam.add_scan(&scan, Some(*pose));
+        }
+        let result = slam.finish();
+        let first = truth[0].inverse();
+        let last = result.poses_in_map.last().copied().unwrap_or_default();
+        let error = (first * truth[truth.len() - 1]).inverse() * last;
+        assert!(error.x_m.hypot(error.y_m) < 0.03, "{error:?}");
+    }
+}

@@ -1,0 +1,132 @@
+//! The options of the SLAM pipeline, each with a default that works on the benchmark logs.
+
+use crate::grid::{ScanRefinerOptions, SubmapOptions};
+use crate::pose_graph::OptimizeOptions;
+
+/// Everything [`super::GraphSlam`] can be told.
+#[derive(Clone, Debug)]
+pub struct SlamOptions {
+    /// How submap grids are built (5 cm cells by default).
+    pub submap: SubmapOptions,
+    /// Scans a submap receives before the next one starts; each submap receives up to twice as
+    /// many (two submaps are active at a time).
+    pub scans_per_submap: usize,
+    /// Beams longer than this are treated as no return, metres.
+    pub max_range_m: f64,
+    /// Beams shorter than this are dropped (robot body, dust), metres.
+    pub min_range_m: f64,
+    /// Local tracking.
+    pub local: LocalTrackingOptions,
+    /// Loop closure.
+    pub loop_closure: LoopClosureOptions,
+    /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
+    pub odometry_sigma: [f64; 2],
+    /// Standard deviation of a loop-closure constraint: translation (m), rotation (rad).
+    pub loop_closure_sigma: [f64; 2],
+    /// Huber threshold of loop-closure constraints, in standard deviations.
+    pub loop_closure_huber_delta: f64,
+    /// Pose-graph solver.
+    pub optimize: OptimizeOptions,
+}
+
+impl Default for SlamOptions {
+    fn default() -> Self {
+        // Scans of the benchmark logs are about a metre apart, so a submap holds few of them:
+        // walls must stand out from free space after one or two hits for the refinement to
+        // find them (with 0.55 / 0.49 a young submap's walls barely differ from free space and
+        // the refinement is drawn to the edge of the known area instead).
+        let mut submap = SubmapOptions::default();
+        submap.range_inserter.hit_probability = 0.9;
+        submap.range_inserter.miss_probability = 0.3;
+        SlamOptions {
+            submap,
+            scans_per_submap: 30,
+            max_range_m: 30.0,
+            min_range_m: 0.1,
+            local: LocalTrackingOptions::default(),
+            loop_closure: LoopClosureOptions::default(),
+            odometry_sigma: [0.02, 0.5f64.to_radians()],
+            loop_closure_sigma: [0.03, 0.5f64.to_radians()],
+            loop_closure_huber_delta: 3.0,
+            optimize: OptimizeOptions::default(),
+        }
+    }
+}
+
+/// How each scan is placed against the active submap.
+#[derive(Clone, Debug)]
+pub struct LocalTrackingOptions {
+    /// The sub-cell refinement on the submap grid.
+    pub refiner: ScanRefinerOptions,
+    /// A refinement whose mean probability at the scan's end points is below this triggers
+    /// the wide search; 1 (the default) searches for every scan, which the benchmark logs,
+    /// with a metre and tens of degrees between scans, need.
+    pub min_refined_probability: f64,
+    /// Half width of the wide search's translation window, metres.
+    pub search_window_m: f64,
+    /// Half width of the wide search's rotation window, radians.
+    pub search_window_rad: f64,
+    /// Pixel size of the wide search's raster, metres.
+    pub search_resolution_m: f64,
+    /// Rotation step of the wide search, radians.
+    pub search_rotation_step_rad: f64,
+    /// Scans drawn as the wide search's reference.
+    pub recent_scans: usize,
+}
+
+impl Default for LocalTrackingOptions {
+    fn default() -> Self {
+        LocalTrackingOptions {
+            refiner: ScanRefinerOptions::default(),
+            min_refined_probability: 1.0,
+            search_window_m: 1.0,
+            search_window_rad: 45f64.to_radians(),
+            search_resolution_m: 0.1,
+            search_rotation_step_rad: 1f64.to_radians(),
+            recent_scans: 5,
+        }
+    }
+}
+
+/// How earlier submaps are searched for the current scan.
+#[derive(Clone, Debug)]
+pub struct LoopClosureOptions {
+    /// Whether to search at all.
+    pub enabled: bool,
+    /// Search every this many scans.
+    pub every_n_scans: usize,
+    /// Half width of the translation window, metres.
+    pub search_window_m: f64,
+    /// Half width of the rotation window, radians.
+    pub search_window_rad: f64,
+    /// Pixel size of the search raster, metres.
+    pub search_resolution_m: f64,
+    /// Rotation step, radians.
+    pub search_rotation_step_rad: f64,
+    /// Side of the search raster, pixels.
+    pub raster_side_px: u32,
+    /// Submaps whose frame is farther from the scan's estimated pose are not searched, metres.
+    pub max_distance_m: f64,
+    /// Mean probability at the scan's end points, after refinement, that accepts a match.
+    pub min_probability: f64,
+    /// Submaps whose last scan is this recent (in scans) are not searched (local tracking
+    /// covers them).
+    pub min_scans_apart: usize,
+}
+
+impl Default for LoopClosureOptions {
+    fn default() -> Self {
+        LoopClosureOptions {
+            enabled: true,
+            every_n_scans: 5,
+            search_window_m: 2.0,
+            search_window_rad: 30f64.to_radians(),
+            search_resolution_m: 0.1,
+            search_rotation_step_rad: 1f64.to_radians(),
+            raster_side_px: 256,
+            max_distance_m: 10.0,
+            min_probability: 0.7,
+            min_scans_apart: 30,
+        }
+    }
+}
