@@ -262,11 +262,11 @@ mod tests {
         };
         let scans = capture_scans(&std::fs::read(&path).unwrap(), 38_400);
         assert_eq!(scans.len(), 17);
+        assert!(scans.iter().all(|s| crc_ok(s.telegram.as_deref().unwrap())));
         assert!(
             scans
-                .iter()
-                .all(|s| crc_ok(s.telegram.as_deref().unwrap()))
+                .windows(2)
+                .all(|w| w[0].timestamp_s < w[1].timestamp_s)
         );
-        assert!(scans.windows(2).all(|w| w[0].timestamp_s < w[1].timestamp_s));
     }
 }
