@@ -117,7 +117,7 @@ impl GraphSlam {
             self.finished.push((submap, reference));
         }
         let every = self.options.loop_closure.every_n_scans.max(1);
-        if self.options.loop_closure.enabled && node % every == 0 {
+        if self.options.loop_closure.enabled && node.is_multiple_of(every) {
             self.close_loops(node, &scan, pose_in_map);
         }
         if self.closures_since_optimization > 0 {

@@ -11,8 +11,9 @@
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
 use super::slam_submap::SlamSubmap;
+use super::window_matcher::window_matcher;
 use crate::grid::{Refinement, ScanRefiner};
-use crate::scan_match::{FastMatcher, Pose2, RasterOptions, Scan, ScanMatcher, SearchTable};
+use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatcher};
 
 /// What tracking made of one scan.
 #[derive(Clone, Debug)]
@@ -51,26 +52,16 @@ impl LocalTracker {
     /// When the wide-search options do not make a valid raster or table.
     pub fn new(options: SlamOptions) -> Result<Self, crate::scan_match::ScanMatchError> {
         let local = &options.local;
-        let raster = RasterOptions {
-            resolution_m: local.search_resolution_m,
-            width_px: 256,
-            height_px: 256,
-            max_gap_m: 0.5,
-        };
-        let half_steps = (local.search_window_m / local.search_resolution_m).round() as u32;
-        let rotation_half_steps =
-            (local.search_window_rad / local.search_rotation_step_rad).round() as u32;
-        let table = SearchTable::quantised(
-            half_steps,
-            half_steps,
+        let wide_search = window_matcher(
+            local.search_window_m,
+            local.search_window_rad,
             local.search_resolution_m,
-            rotation_half_steps,
             local.search_rotation_step_rad,
-            &raster,
-        );
+            256,
+        )?;
         Ok(LocalTracker {
             refiner: ScanRefiner::new(local.refiner),
-            wide_search: FastMatcher::new(raster, table)?,
+            wide_search,
             recent: RecentScans::new(local.recent_scans),
             active: Vec::new(),
             last_pose_in_local: None,

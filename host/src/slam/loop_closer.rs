@@ -10,10 +10,9 @@
 
 use super::options::LoopClosureOptions;
 use super::slam_submap::SlamSubmap;
+use super::window_matcher::window_matcher;
 use crate::grid::{ScanRefiner, ScanRefinerOptions};
-use crate::scan_match::{
-    FastMatcher, Pose2, RasterOptions, Scan, ScanMatchError, ScanMatcher, SearchTable,
-};
+use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatchError, ScanMatcher};
 
 /// A scan found in a submap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,25 +40,15 @@ impl LoopCloser {
         options: LoopClosureOptions,
         refiner: ScanRefinerOptions,
     ) -> Result<Self, ScanMatchError> {
-        let raster = RasterOptions {
-            resolution_m: options.search_resolution_m,
-            width_px: options.raster_side_px,
-            height_px: options.raster_side_px,
-            max_gap_m: 0.5,
-        };
-        let half_steps = (options.search_window_m / options.search_resolution_m).round() as u32;
-        let rotation_half_steps =
-            (options.search_window_rad / options.search_rotation_step_rad).round() as u32;
-        let table = SearchTable::quantised(
-            half_steps,
-            half_steps,
+        let matcher = window_matcher(
+            options.search_window_m,
+            options.search_window_rad,
             options.search_resolution_m,
-            rotation_half_steps,
             options.search_rotation_step_rad,
-            &raster,
-        );
+            options.raster_side_px,
+        )?;
         Ok(LoopCloser {
-            matcher: FastMatcher::new(raster, table)?,
+            matcher,
             refiner: ScanRefiner::new(refiner),
             options,
         })

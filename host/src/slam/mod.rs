@@ -26,6 +26,7 @@ mod loop_closer;
 mod options;
 mod recent_scans;
 mod slam_submap;
+mod window_matcher;
 
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use local_tracker::{LocalTracker, TrackedScan};
