@@ -164,17 +164,9 @@ pub fn replay_carmen_slam(
     write_trajectory(&trajectory_path, &lasers, &result.poses_in_map)
         .map_err(write_error(&trajectory_path))?;
     // The map holds the beams the SLAM trusted.
-    let max_range_m = options.slam.max_range_m;
     let trusted: Vec<Scan> = scans
         .iter()
-        .map(|scan| {
-            Scan::from_points_in_robot(
-                scan.points_in_robot()
-                    .iter()
-                    .map(|p| p.filter(|p| p[0].hypot(p[1]) <= max_range_m))
-                    .collect(),
-            )
-        })
+        .map(|s| options.slam.trusted_beams(s))
         .collect();
     let grid = result.global_grid(&trusted, MAP_RESOLUTION_M);
     let export = MapExport::from_grid(&grid, &MapExportOptions::default());

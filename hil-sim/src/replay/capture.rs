@@ -147,8 +147,7 @@ impl CaptureReplay {
 /// firmware's own requests. Timestamps are when each telegram's last byte left a line at
 /// `baud` that never idles, from 0.
 pub fn capture_scans(bytes: &[u8], baud: u32) -> Vec<RecordedScan> {
-    const HEADER_LEN: usize = 4;
-    const SCAN_CODE: u8 = 0xB0;
+    use crate::run::tap::{HEADER_LEN, SCAN_CODE};
     let mut scans = Vec::new();
     let mut at = 0;
     while at < bytes.len() {

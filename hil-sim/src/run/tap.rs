@@ -5,7 +5,7 @@
 //! telegrams (`02h`, address, length LE, `length` bytes, CRC LE), so it splits exactly.
 
 /// The `B0h` measured-value reply code.
-const SCAN_CODE: u8 = 0xB0;
+pub(crate) const SCAN_CODE: u8 = 0xB0;
 
 /// A piece of the sensor's output.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -30,7 +30,7 @@ pub struct TelegramTap {
 }
 
 /// Bytes before a telegram's data: STX, address, length.
-const HEADER_LEN: usize = 4;
+pub(crate) const HEADER_LEN: usize = 4;
 
 impl TelegramTap {
     /// An idle tap.

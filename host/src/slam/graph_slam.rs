@@ -89,7 +89,7 @@ impl GraphSlam {
     /// Adds `scan` (end points in the robot frame), with the odometry pose at the scan when
     /// the log has one; returns the scan's current pose in the map.
     pub fn add_scan(&mut self, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
-        let scan = self.clip(scan);
+        let scan = self.options.trusted_beams(scan);
         let tracked = self.tracker.track(&scan, odometry);
         self.stats.scans += 1;
         self.stats.wide_searches += usize::from(tracked.searched);
@@ -146,22 +146,6 @@ impl GraphSlam {
 
     fn pose_in_map(&self, node: usize) -> Option<Pose2> {
         self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
-    }
-
-    /// The scan without beams outside the ranges the options trust.
-    fn clip(&self, scan: &Scan) -> Scan {
-        let (min_m, max_m) = (self.options.min_range_m, self.options.max_range_m);
-        Scan::from_points_in_robot(
-            scan.points_in_robot()
-                .iter()
-                .map(|p| {
-                    p.filter(|p| {
-                        let range_m = p[0].hypot(p[1]);
-                        range_m >= min_m && range_m <= max_m
-                    })
-                })
-                .collect(),
-        )
     }
 
     /// Searches the finished submaps near `pose_in_map` for the scan of `node`.

@@ -2,6 +2,7 @@
 
 use crate::grid::{ScanRefinerOptions, SubmapOptions};
 use crate::pose_graph::OptimizeOptions;
+use crate::scan_match::Scan;
 
 /// Everything [`super::GraphSlam`] can be told.
 #[derive(Clone, Debug)]
@@ -27,6 +28,25 @@ pub struct SlamOptions {
     pub loop_closure_huber_delta: f64,
     /// Pose-graph solver.
     pub optimize: OptimizeOptions,
+}
+
+impl SlamOptions {
+    /// `scan` without the beams outside `min_range_m ..= max_range_m`: what the SLAM tracks,
+    /// and what the global map holds.
+    pub fn trusted_beams(&self, scan: &Scan) -> Scan {
+        let (min_m, max_m) = (self.min_range_m, self.max_range_m);
+        Scan::from_points_in_robot(
+            scan.points_in_robot()
+                .iter()
+                .map(|p| {
+                    p.filter(|p| {
+                        let range_m = p[0].hypot(p[1]);
+                        range_m >= min_m && range_m <= max_m
+                    })
+                })
+                .collect(),
+        )
+    }
 }
 
 impl Default for SlamOptions {
