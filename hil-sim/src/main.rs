@@ -126,6 +126,75 @@ enum Command {
         #[arg(long)]
         no_loop_closure: bool,
     },
+    /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter and a
+    /// single global EKF on the same noisy odometry and tree observations. Prints as its last
+    /// line `{"runs":N,"submap_fraction_within":…,"full_ekf_fraction_within":…}`: the
+    /// fraction of steps whose run-averaged robot-pose NEES lies within the 95 % chi-square
+    /// bounds.
+    Nees {
+        /// World (only `outdoor` has landmarks).
+        #[arg(long, default_value = "outdoor")]
+        world: hil_sim::world::WorldKind,
+        /// Monte-Carlo runs.
+        #[arg(long, default_value_t = 20)]
+        runs: usize,
+        /// Seed of the world and the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Length of each run, s.
+        #[arg(long, default_value_t = 120.0)]
+        duration: f64,
+        /// Landmarks per local map of the submap filter.
+        #[arg(long, default_value_t = 30)]
+        local_map_landmarks: usize,
+    },
+    /// EKF SLAM with local maps over the Victoria Park run (tree detections, car odometry,
+    /// GPS), measured against its GPS.
+    ///
+    /// Writes OUT/trajectory.tsv (`t_s x_m y_m theta_rad` after each scan; with GPS fused,
+    /// in the frame of gps.dat), OUT/landmarks.tsv and OUT/summary.json (`wall_s`, `steps`,
+    /// `landmarks`, `local_maps`, `loop_closures`, `rms_to_gps_m`: directly with GPS fused,
+    /// after the best rigid alignment with `--no-gps`, and step times by map size).
+    ReplayVictoria {
+        /// The `rfs_slam_ascii` directory (inputs.dat, gps.dat, measurements.dat).
+        dir: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "victoria-out")]
+        out: PathBuf,
+        /// Do not fuse the GPS (it is still used to measure the error).
+        #[arg(long)]
+        no_gps: bool,
+        /// Standard deviation of a GPS fix on each axis, m.
+        #[arg(long, default_value_t = 1.0)]
+        gps_sigma_m: f64,
+        /// Close a local map once it holds this many landmarks; 0 runs one global EKF.
+        #[arg(long, default_value_t = 30)]
+        local_map_landmarks: usize,
+        /// Do not estimate the odometry's speed scale and steering offset online.
+        #[arg(long)]
+        no_calibration: bool,
+        /// Trees further than this are not used, m (0 runs on odometry alone).
+        #[arg(long, default_value_t = 40.0)]
+        max_range_m: f64,
+        /// Use only the first S seconds of the run.
+        #[arg(long)]
+        duration_s: Option<f64>,
+        /// Standard deviation of a tree's range, m.
+        #[arg(long, default_value_t = 0.5)]
+        sigma_range_m: f64,
+        /// Standard deviation of a tree's bearing, degrees.
+        #[arg(long, default_value_t = 1.0)]
+        sigma_bearing_deg: f64,
+        /// Standard deviation of the measured wheel speed, m/s.
+        #[arg(long, default_value_t = 0.1)]
+        sigma_speed_mps: f64,
+        /// Standard deviation of the measured steering angle, degrees.
+        #[arg(long, default_value_t = 1.5)]
+        sigma_steer_deg: f64,
+        /// Lateral offset of the laser, m, positive to the left.
+        #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+        laser_left_m: f64,
+    },
     /// Match consecutive scan pairs of a CARMEN log with the reference raster matcher and the
     /// fast matcher on the same table; prints per-pair timings on stderr and, as the last
     /// line on stdout, `{"pairs":N,"identical":K,"reference_s":…,"fast_s":…}`.
@@ -242,6 +311,35 @@ fn replay_carmen(
         summary.scans,
         summary.wall_s,
         summary.scans_per_second,
+        options.out.display()
+    );
+    Ok(())
+}
+
+fn nees(options: hil_sim::nees::NeesOptions) -> Result<(), Box<dyn std::error::Error>> {
+    let report = hil_sim::nees::run_nees(&options)?;
+    eprintln!("{}", serde_json::to_string_pretty(&report)?);
+    println!(
+        "{}",
+        serde_json::json!({
+            "runs": report.runs,
+            "submap_fraction_within": report.submap_fraction_within,
+            "full_ekf_fraction_within": report.full_ekf_fraction_within,
+        })
+    );
+    Ok(())
+}
+
+fn replay_victoria(
+    options: hil_sim::victoria_slam::VictoriaSlamOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let summary = hil_sim::victoria_slam::replay_victoria(&options)?;
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    eprintln!(
+        "hil-sim: {} scans in {:.3} s, RMS to GPS {:.2} m; outputs in {}",
+        summary.scans,
+        summary.wall_s,
+        summary.rms_to_gps_m,
         options.out.display()
     );
     Ok(())
@@ -367,6 +465,53 @@ fn main() -> ExitCode {
                 no_return_from_m,
                 slam,
             })
+        }
+        Command::Nees {
+            world,
+            runs,
+            seed,
+            duration,
+            local_map_landmarks,
+        } => nees(hil_sim::nees::NeesOptions {
+            world,
+            runs,
+            seed,
+            duration_s: duration,
+            local_map_landmarks,
+            ..Default::default()
+        }),
+        Command::ReplayVictoria {
+            dir,
+            out,
+            no_gps,
+            gps_sigma_m,
+            local_map_landmarks,
+            no_calibration,
+            max_range_m,
+            duration_s,
+            sigma_range_m,
+            sigma_bearing_deg,
+            sigma_speed_mps,
+            sigma_steer_deg,
+            laser_left_m,
+        } => {
+            let mut options = hil_sim::victoria_slam::VictoriaSlamOptions::new(dir, out);
+            options.use_gps = !no_gps;
+            options.gps_sigma_m = gps_sigma_m;
+            options.slam.max_landmarks_per_local_map = if local_map_landmarks == 0 {
+                usize::MAX
+            } else {
+                local_map_landmarks
+            };
+            options.motion.calibrate = !no_calibration;
+            options.max_range_m = max_range_m;
+            options.duration_s = duration_s;
+            options.sensor.sigma_range_m = sigma_range_m;
+            options.sensor.sigma_bearing_rad = sigma_bearing_deg.to_radians();
+            options.sensor.sensor_in_robot[1] = laser_left_m;
+            options.motion.sigma_speed_mps = sigma_speed_mps;
+            options.motion.sigma_steer_rad = sigma_steer_deg.to_radians();
+            replay_victoria(options)
         }
         Command::BenchMatch { log, pairs } => bench_match(&log, pairs),
         Command::DecodeSick { file } => hil_sim::decode_sick::run(&file),

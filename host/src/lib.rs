@@ -8,8 +8,11 @@
 //!   kernels for loop closures.
 //! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
 
+pub mod ekf_slam;
 pub mod evaluation;
+pub mod georef;
 pub mod grid;
+pub mod landmarks;
 pub mod link;
 pub mod pose_graph;
 pub mod scan_match;

@@ -30,7 +30,7 @@ pub mod synthetic;
 pub use bresenham::BresenhamLine;
 pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH};
 pub use incremental::{IncrementalMatch, match_incremental};
-pub use pose::Pose2;
+pub use pose::{Pose2, wrap_angle_rad};
 pub use reference_matcher::ReferenceMatcher;
 pub use scan::Scan;
 pub use search::{Candidate, MatchResult, RasterOptions, ScanMatchError, ScanMatcher, SearchTable};

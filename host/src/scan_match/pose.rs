@@ -74,7 +74,7 @@ impl Mul for Pose2 {
 }
 
 /// Wraps an angle into `(-pi, pi]`; non-finite angles are returned unchanged.
-fn wrap_angle_rad(angle_rad: f64) -> f64 {
+pub fn wrap_angle_rad(angle_rad: f64) -> f64 {
     if !angle_rad.is_finite() {
         return angle_rad;
     }

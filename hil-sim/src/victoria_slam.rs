@@ -1,0 +1,517 @@
+//! `hil-sim replay-victoria`: EKF submapping SLAM ([`host::ekf_slam`]) over the Victoria Park
+//! run, optionally fusing its GPS, measured against that GPS.
+//!
+//! The run's three streams share one clock and are merged by time: every drive input
+//! (`inputs.dat`) is held until the next event; each event first moves the filter to its time
+//! with the latest input, then applies itself: a tree scan (`measurements.dat`) is one batch
+//! of range-bearing-diameter observations, a GPS fix (`gps.dat`) a position update.
+//!
+//! With GPS the map frame becomes the frame of `gps.dat`: the filter starts in the frame of
+//! the first pose, and once enough fixes (spread over [`GPS_ALIGNMENT_SPAN_M`]) pair with the
+//! filter's positions, the weighted rigid alignment `enu_from_map` re-expresses the map and the
+//! trajectory so far; fixes are fused from then on, each gated against the filter (the
+//! receiver jumps at times).
+//!
+//! Outputs in the output directory:
+//!
+//! * `trajectory.tsv`: `t_s x_m y_m theta_rad` after each scan (the rear-axle centre);
+//! * `landmarks.tsv`: `x_m y_m diameter_m observations sigma_x_m sigma_y_m`;
+//! * `summary.json`: `wall_s`, `steps`, `landmarks`, `local_maps`, `loop_closures`, the RMS
+//!   position error against `gps.dat` and the step times against the size of the map.
+
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use host::ekf_slam::{
+    AckermannGeometry, AckermannInput, AckermannModel, LandmarkObservation, RangeBearingModel,
+    SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
+};
+use host::georef::{AlignmentPair, RigidAlignment2d, RigidAlignmentOptions};
+use nalgebra::Matrix2;
+use serde::Serialize;
+
+use crate::replay::LogError;
+use crate::replay::victoria::{CarGeometry, LocalGpsFix, VictoriaPark};
+
+/// GPS fixes start being fused once those paired with the filter span this many metres.
+pub const GPS_ALIGNMENT_SPAN_M: f64 = 30.0;
+/// Width of the map-size classes of the step-time table, landmarks.
+const SIZE_CLASS_LANDMARKS: usize = 50;
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct VictoriaSlamOptions {
+    /// The `rfs_slam_ascii` directory.
+    pub dir: PathBuf,
+    /// Where the outputs go (created if missing).
+    pub out: PathBuf,
+    /// Fuse the GPS fixes.
+    pub use_gps: bool,
+    /// Standard deviation of a GPS fix on each axis, metres.
+    pub gps_sigma_m: f64,
+    /// GPS fixes further than this squared Mahalanobis distance from the filter are jumps.
+    pub gps_gate_distance2: f64,
+    /// Trees further than this are not used, metres.
+    pub max_range_m: f64,
+    /// Use only the events of the first this many seconds (all when `None`).
+    pub duration_s: Option<f64>,
+    /// The car model.
+    pub motion: AckermannModel,
+    /// The laser and its noise.
+    pub sensor: RangeBearingModel,
+    /// The filter.
+    pub slam: SubmapSlamOptions,
+}
+
+impl VictoriaSlamOptions {
+    /// Defaults for the Victoria Park vehicle and its laser.
+    pub fn new(dir: PathBuf, out: PathBuf) -> VictoriaSlamOptions {
+        let geometry = CarGeometry::default();
+        VictoriaSlamOptions {
+            dir,
+            out,
+            use_gps: true,
+            gps_sigma_m: 1.0,
+            gps_gate_distance2: 25.0,
+            max_range_m: 40.0,
+            duration_s: None,
+            motion: AckermannModel::new(AckermannGeometry {
+                wheelbase_m: geometry.l_m,
+                encoder_offset_m: geometry.h_m,
+            }),
+            sensor: RangeBearingModel {
+                sensor_in_robot: [geometry.a_m, geometry.b_m, 0.0],
+                sigma_range_m: 0.5,
+                sigma_bearing_rad: 1f64.to_radians(),
+            },
+            slam: SubmapSlamOptions::default(),
+        }
+    }
+}
+
+/// Step times of scans taken while the global map had a given number of landmarks.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct StepTimeClass {
+    /// Landmarks in the global map, from (inclusive)…
+    pub landmarks_from: usize,
+    /// …to (exclusive).
+    pub landmarks_to: usize,
+    /// Scans in the class.
+    pub steps: usize,
+    /// Mean time of a scan step (prediction to its time, update, any join), microseconds.
+    pub mean_us: f64,
+    /// Longest scan step, microseconds.
+    pub max_us: f64,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct VictoriaSlamSummary {
+    /// Seconds the filter took (not reading the files or writing the outputs).
+    pub wall_s: f64,
+    /// Events processed: drive inputs, scans and GPS fixes.
+    pub steps: usize,
+    /// Scans (observation batches).
+    pub scans: usize,
+    /// Landmarks in the final map.
+    pub landmarks: usize,
+    /// Local maps joined.
+    pub local_maps: usize,
+    /// Joins that fused landmarks mapped two or more local maps earlier.
+    pub loop_closures: usize,
+    /// Whether GPS was fused.
+    pub gps_used: bool,
+    /// GPS fixes fused.
+    pub gps_fused: usize,
+    /// GPS fixes rejected by the gate.
+    pub gps_rejected: usize,
+    /// GPS fixes the error is measured on (those after the first filter pose).
+    pub gps_compared: usize,
+    /// RMS distance between the trajectory and the GPS fixes, metres: directly when GPS was
+    /// fused, after the best rigid alignment when not.
+    pub rms_to_gps_m: f64,
+    /// Median of the same distances, metres.
+    pub median_to_gps_m: f64,
+    /// Final speed scale and steering offset (radians) of the online calibration.
+    pub calibration: Option<[f64; 2]>,
+    /// The filter's counters.
+    pub filter: FilterCounts,
+    /// Scan step times by global map size.
+    pub step_time_by_map_size: Vec<StepTimeClass>,
+}
+
+/// The counters of [`SubmapSlamStats`], flattened for JSON.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FilterCounts {
+    /// Observations paired with a landmark.
+    pub associated: usize,
+    /// Observations that started a landmark.
+    pub new_landmarks: usize,
+    /// Observations dropped as ambiguous.
+    pub ambiguous: usize,
+    /// Landmarks fused across local maps.
+    pub fused: usize,
+    /// Updates that failed (not positive definite).
+    pub failed_updates: usize,
+}
+
+impl From<SubmapSlamStats> for FilterCounts {
+    fn from(stats: SubmapSlamStats) -> Self {
+        FilterCounts {
+            associated: stats.observations.associated,
+            new_landmarks: stats.observations.new_landmarks,
+            ambiguous: stats.observations.ambiguous,
+            fused: stats.fused,
+            failed_updates: stats.failed_updates,
+        }
+    }
+}
+
+/// Errors of the command.
+#[derive(Debug, thiserror::Error)]
+pub enum VictoriaSlamError {
+    /// A file of the run could not be read.
+    #[error(transparent)]
+    Log(#[from] LogError),
+    /// An output could not be written.
+    #[error("writing {path}: {source}")]
+    Write {
+        /// The output.
+        path: PathBuf,
+        /// What failed.
+        source: io::Error,
+    },
+    /// The run holds no scan.
+    #[error("{0} holds no tree scan")]
+    Empty(PathBuf),
+}
+
+/// One event of the merged streams.
+#[derive(Debug, Clone, Copy)]
+enum Event {
+    Input(usize),
+    Scan(usize),
+    Gps(usize),
+}
+
+/// A pose of the trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct StampedPose {
+    t_s: f64,
+    pose: [f64; 3],
+}
+
+/// Runs the filter over the run in `options.dir` and writes the outputs.
+///
+/// # Errors
+/// A missing or malformed input file, an unwritable output directory, a run without scans.
+pub fn replay_victoria(
+    options: &VictoriaSlamOptions,
+) -> Result<VictoriaSlamSummary, VictoriaSlamError> {
+    let park = VictoriaPark::read_dir(&options.dir)?;
+    if park.scans.is_empty() {
+        return Err(VictoriaSlamError::Empty(options.dir.clone()));
+    }
+    let run = run_filter(&park, options);
+    write_outputs(options, &park, &run)
+}
+
+/// What a run produced.
+struct FilterRun {
+    trajectory: Vec<StampedPose>,
+    slam: SubmapSlam<AckermannModel>,
+    wall_s: f64,
+    steps: usize,
+    gps_fused: usize,
+    gps_rejected: usize,
+    step_times: Vec<(usize, f64)>,
+}
+
+/// Merges the streams by time: at equal times inputs first, then scans, then fixes.
+fn merged_events(park: &VictoriaPark, use_gps: bool) -> Vec<(f64, Event)> {
+    let mut events: Vec<(f64, Event)> = park
+        .inputs
+        .iter()
+        .enumerate()
+        .map(|(i, input)| (input.t_s, Event::Input(i)))
+        .chain(
+            park.scans
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.t_s, Event::Scan(i))),
+        )
+        .chain(
+            park.gps
+                .iter()
+                .enumerate()
+                .filter(|_| use_gps)
+                .map(|(i, fix)| (fix.t_s, Event::Gps(i))),
+        )
+        .collect();
+    let rank = |event: &Event| match event {
+        Event::Input(_) => 0,
+        Event::Scan(_) => 1,
+        Event::Gps(_) => 2,
+    };
+    events.sort_by(|a, b| a.0.total_cmp(&b.0).then(rank(&a.1).cmp(&rank(&b.1))));
+    events
+}
+
+fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
+    let mut events = merged_events(park, options.use_gps);
+    if let (Some(duration_s), Some(&(first_s, _))) = (options.duration_s, events.first()) {
+        events.retain(|e| e.0 <= first_s + duration_s);
+    }
+    let started = Instant::now();
+    let mut slam = SubmapSlam::new(options.motion, options.sensor, options.slam, [0.0; 3]);
+    let mut trajectory = Vec::with_capacity(park.scans.len());
+    let mut step_times = Vec::with_capacity(park.scans.len());
+    let mut input = AckermannInput::default();
+    let mut last_t_s = events.first().map_or(0.0, |e| e.0);
+    let mut alignment_pairs: Vec<AlignmentPair> = Vec::new();
+    let mut aligned = false;
+    let (mut gps_fused, mut gps_rejected) = (0, 0);
+    let gps_noise = Matrix2::identity() * options.gps_sigma_m.powi(2);
+
+    for &(t_s, event) in &events {
+        let step_started = Instant::now();
+        slam.predict(&input, t_s - last_t_s);
+        last_t_s = t_s;
+        match event {
+            Event::Input(i) => {
+                input = AckermannInput {
+                    wheel_speed_mps: park.inputs[i].speed_mps,
+                    steer_rad: park.inputs[i].steer_rad,
+                };
+            }
+            Event::Scan(i) => {
+                let observations: Vec<LandmarkObservation> = park.scans[i]
+                    .detections
+                    .iter()
+                    .filter(|d| d.range_m <= options.max_range_m && d.range_m > 0.0)
+                    .map(|d| LandmarkObservation {
+                        range_m: d.range_m,
+                        // The file's bearings run 0..π with π/2 straight ahead.
+                        bearing_rad: d.bearing_rad - std::f64::consts::FRAC_PI_2,
+                        diameter_m: Some(d.diameter_m),
+                    })
+                    .collect();
+                let landmarks = slam.global_landmark_count();
+                slam.observe(&observations);
+                step_times.push((landmarks, step_started.elapsed().as_secs_f64()));
+                trajectory.push(StampedPose {
+                    t_s,
+                    pose: slam.pose_in_map().0,
+                });
+            }
+            Event::Gps(i) => {
+                let fix = park.gps[i];
+                if aligned {
+                    if slam.observe_position(
+                        [fix.x_m, fix.y_m],
+                        &gps_noise,
+                        options.gps_gate_distance2,
+                    ) {
+                        gps_fused += 1;
+                    } else {
+                        gps_rejected += 1;
+                    }
+                } else {
+                    let (pose, _) = slam.pose_in_map();
+                    alignment_pairs.push(AlignmentPair {
+                        point_in_map: [pose[0], pose[1]],
+                        point_in_enu: [fix.x_m, fix.y_m],
+                        covariance_in_enu_m2: gps_noise,
+                    });
+                    if let Some(enu_from_map) = try_align(&alignment_pairs) {
+                        slam.transform_map(enu_from_map);
+                        for stamped in &mut trajectory {
+                            stamped.pose =
+                                host::ekf_slam::frames::compose_pose(enu_from_map, stamped.pose).0;
+                        }
+                        aligned = true;
+                    }
+                }
+            }
+        }
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    FilterRun {
+        trajectory,
+        slam,
+        wall_s,
+        steps: events.len(),
+        gps_fused,
+        gps_rejected,
+        step_times,
+    }
+}
+
+/// `enu_from_map` once the paired fixes span [`GPS_ALIGNMENT_SPAN_M`].
+fn try_align(pairs: &[AlignmentPair]) -> Option<[f64; 3]> {
+    let first = pairs.first()?.point_in_map;
+    let span_m = pairs
+        .iter()
+        .map(|p| (p.point_in_map[0] - first[0]).hypot(p.point_in_map[1] - first[1]))
+        .fold(0.0, f64::max);
+    if span_m < GPS_ALIGNMENT_SPAN_M {
+        return None;
+    }
+    let alignment = RigidAlignment2d::estimate(pairs, &RigidAlignmentOptions::default()).ok()?;
+    let t = alignment.enu_from_map;
+    Some([t.x_m, t.y_m, t.theta_rad])
+}
+
+/// The trajectory's position at `t_s`, interpolated between the poses around it.
+fn position_at(trajectory: &[StampedPose], t_s: f64) -> Option<[f64; 2]> {
+    let after = trajectory.partition_point(|p| p.t_s < t_s);
+    if after == 0 || after == trajectory.len() {
+        return None;
+    }
+    let (a, b) = (trajectory[after - 1], trajectory[after]);
+    let f = if b.t_s > a.t_s {
+        (t_s - a.t_s) / (b.t_s - a.t_s)
+    } else {
+        0.0
+    };
+    Some([
+        a.pose[0] + f * (b.pose[0] - a.pose[0]),
+        a.pose[1] + f * (b.pose[1] - a.pose[1]),
+    ])
+}
+
+/// RMS and median distance of the trajectory to the fixes, after aligning it when `align`.
+fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) -> (usize, f64, f64) {
+    let pairs: Vec<AlignmentPair> = gps
+        .iter()
+        .filter_map(|fix| {
+            position_at(trajectory, fix.t_s).map(|p| AlignmentPair {
+                point_in_map: p,
+                point_in_enu: [fix.x_m, fix.y_m],
+                covariance_in_enu_m2: Matrix2::identity(),
+            })
+        })
+        .collect();
+    let enu_from_map = if align {
+        RigidAlignment2d::estimate(&pairs, &RigidAlignmentOptions::default())
+            .map(|a| a.enu_from_map)
+            .unwrap_or_default()
+    } else {
+        host::scan_match::Pose2::IDENTITY
+    };
+    let mut distances: Vec<f64> = pairs
+        .iter()
+        .map(|pair| {
+            let [x, y] = enu_from_map.transform_point(pair.point_in_map);
+            (x - pair.point_in_enu[0]).hypot(y - pair.point_in_enu[1])
+        })
+        .collect();
+    if distances.is_empty() {
+        return (0, f64::NAN, f64::NAN);
+    }
+    let rms = (distances.iter().map(|d| d * d).sum::<f64>() / distances.len() as f64).sqrt();
+    distances.sort_by(f64::total_cmp);
+    (distances.len(), rms, distances[distances.len() / 2])
+}
+
+/// Step times grouped by map size.
+fn step_time_classes(step_times: &[(usize, f64)]) -> Vec<StepTimeClass> {
+    let largest = step_times.iter().map(|s| s.0).max().unwrap_or(0);
+    (0..=largest / SIZE_CLASS_LANDMARKS)
+        .filter_map(|class| {
+            let from = class * SIZE_CLASS_LANDMARKS;
+            let to = from + SIZE_CLASS_LANDMARKS;
+            let times: Vec<f64> = step_times
+                .iter()
+                .filter(|s| s.0 >= from && s.0 < to)
+                .map(|s| s.1 * 1e6)
+                .collect();
+            (!times.is_empty()).then(|| StepTimeClass {
+                landmarks_from: from,
+                landmarks_to: to,
+                steps: times.len(),
+                mean_us: times.iter().sum::<f64>() / times.len() as f64,
+                max_us: times.iter().copied().fold(0.0, f64::max),
+            })
+        })
+        .collect()
+}
+
+fn write_outputs(
+    options: &VictoriaSlamOptions,
+    park: &VictoriaPark,
+    run: &FilterRun,
+) -> Result<VictoriaSlamSummary, VictoriaSlamError> {
+    let write_error = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| VictoriaSlamError::Write { path, source }
+    };
+    fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
+    let slam = run.slam.clone();
+    let calibration = (options.motion.calibrate).then(|| {
+        let robot = slam.robot_in_local_map();
+        [robot[3], robot[4]]
+    });
+    let (global, stats) = slam.finish();
+    let state = global.state();
+
+    let path = options.out.join("trajectory.tsv");
+    let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
+    for stamped in &run.trajectory {
+        let [x, y, theta] = stamped.pose;
+        writeln!(out, "{:.3}\t{x:.4}\t{y:.4}\t{theta:.6}", stamped.t_s)
+            .map_err(write_error(&path))?;
+    }
+    out.flush().map_err(write_error(&path))?;
+
+    let path = options.out.join("landmarks.tsv");
+    let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
+    writeln!(
+        out,
+        "# x_m\ty_m\tdiameter_m\tobservations\tsigma_x_m\tsigma_y_m"
+    )
+    .map_err(write_error(&path))?;
+    for (i, info) in global.landmark_info().iter().enumerate() {
+        let [x, y] = state.landmark(i);
+        let covariance = state.landmark_covariance(i);
+        writeln!(
+            out,
+            "{x:.4}\t{y:.4}\t{:.3}\t{}\t{:.4}\t{:.4}",
+            info.diameter_m.unwrap_or(f64::NAN),
+            info.observations,
+            covariance[(0, 0)].max(0.0).sqrt(),
+            covariance[(1, 1)].max(0.0).sqrt()
+        )
+        .map_err(write_error(&path))?;
+    }
+    out.flush().map_err(write_error(&path))?;
+
+    let (gps_compared, rms_to_gps_m, median_to_gps_m) =
+        error_to_gps(&run.trajectory, &park.gps, !options.use_gps);
+    let summary = VictoriaSlamSummary {
+        wall_s: run.wall_s,
+        steps: run.steps,
+        scans: stats.scans,
+        landmarks: global.landmark_info().len(),
+        local_maps: stats.joins,
+        loop_closures: stats.loop_closures,
+        gps_used: options.use_gps,
+        gps_fused: run.gps_fused,
+        gps_rejected: run.gps_rejected,
+        gps_compared,
+        rms_to_gps_m,
+        median_to_gps_m,
+        calibration,
+        filter: stats.into(),
+        step_time_by_map_size: step_time_classes(&run.step_times),
+    };
+    let path = options.out.join("summary.json");
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| VictoriaSlamError::Write {
+        path: path.clone(),
+        source: io::Error::other(e),
+    })?;
+    fs::write(&path, json + "\n").map_err(write_error(&path))?;
+    Ok(summary)
+}

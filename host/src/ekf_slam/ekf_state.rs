@@ -1,0 +1,377 @@
+//! The EKF's state and covariance: a robot block followed by 2D point landmarks.
+//!
+//! Layout of the state vector: the robot's `robot_dim` entries first, of which the first three
+//! are always its pose `[x_m, y_m, theta_rad]` in the filter's frame (the rest are motion-model
+//! states such as odometry calibration or velocities), then two entries `[x_m, y_m]` per
+//! landmark. The covariance is kept full and symmetric (checked by `debug_assert!`).
+//!
+//! Prediction touches only the robot rows and columns (O(n)); an update of `m` measurement
+//! rows costs O(n² m) and uses the Joseph form
+//! `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`, which keeps `P` positive semi-definite when the
+//! gain is not exactly optimal (clipped angles, constraints with tiny noise).
+
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
+
+use crate::scan_match::wrap_angle_rad;
+
+/// Index of the heading in the state vector.
+const THETA: usize = 2;
+
+/// What can go wrong inside the filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum EkfError {
+    /// An innovation covariance was not positive definite, so the update was not applied.
+    #[error("innovation covariance is not positive definite")]
+    CovarianceNotPositiveDefinite,
+    /// Matrix sizes do not fit the state.
+    #[error("measurement of {rows} rows does not fit a state of {state_dim}")]
+    DimensionMismatch {
+        /// Rows of the measurement.
+        rows: usize,
+        /// Entries of the state.
+        state_dim: usize,
+    },
+}
+
+/// Mean and full covariance of the robot-and-landmarks state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EkfState {
+    mean: DVector<f64>,
+    covariance: DMatrix<f64>,
+    robot_dim: usize,
+}
+
+/// Debug-checks that `matrix` is symmetric to rounding.
+macro_rules! debug_assert_symmetric {
+    ($matrix:expr) => {
+        debug_assert!(
+            {
+                let m = &$matrix;
+                let scale = m.amax().max(1.0);
+                (m - m.transpose()).amax() <= 1e-9 * scale
+            },
+            "covariance lost its symmetry"
+        )
+    };
+}
+
+impl EkfState {
+    /// A state with the robot only.
+    ///
+    /// # Panics
+    /// If the robot has fewer than three entries or the covariance is not square of the same
+    /// size (a programming error, not an input error).
+    pub fn new(robot_mean: DVector<f64>, robot_covariance: DMatrix<f64>) -> EkfState {
+        let robot_dim = robot_mean.len();
+        assert!(robot_dim >= 3, "the robot state starts with a pose");
+        assert_eq!(robot_covariance.shape(), (robot_dim, robot_dim));
+        EkfState {
+            mean: robot_mean,
+            covariance: robot_covariance,
+            robot_dim,
+        }
+    }
+
+    /// A state with `robot_dim` robot entries followed by landmarks (a re-ordered or
+    /// re-expressed copy of another state).
+    pub(crate) fn from_parts(
+        mean: DVector<f64>,
+        covariance: DMatrix<f64>,
+        robot_dim: usize,
+    ) -> EkfState {
+        debug_assert!(robot_dim >= 3 && (mean.len() - robot_dim).is_multiple_of(2));
+        debug_assert_eq!(covariance.shape(), (mean.len(), mean.len()));
+        EkfState {
+            mean,
+            covariance,
+            robot_dim,
+        }
+    }
+
+    /// Entries of the robot block.
+    pub fn robot_dim(&self) -> usize {
+        self.robot_dim
+    }
+
+    /// Entries of the whole state.
+    pub fn dim(&self) -> usize {
+        self.mean.len()
+    }
+
+    /// Number of landmarks.
+    pub fn landmark_count(&self) -> usize {
+        (self.dim() - self.robot_dim) / 2
+    }
+
+    /// Index in the state vector of landmark `i`'s `x_m`.
+    pub fn landmark_offset(&self, i: usize) -> usize {
+        self.robot_dim + 2 * i
+    }
+
+    /// The state vector.
+    pub fn mean(&self) -> &DVector<f64> {
+        &self.mean
+    }
+
+    /// The covariance.
+    pub fn covariance(&self) -> &DMatrix<f64> {
+        &self.covariance
+    }
+
+    /// The robot pose `[x_m, y_m, theta_rad]` in the filter's frame.
+    pub fn pose(&self) -> [f64; 3] {
+        [self.mean[0], self.mean[1], self.mean[2]]
+    }
+
+    /// The robot's motion-model entries (the whole robot block).
+    pub fn robot(&self) -> DVector<f64> {
+        self.mean.rows(0, self.robot_dim).into_owned()
+    }
+
+    /// Covariance of the robot pose.
+    pub fn pose_covariance(&self) -> Matrix3<f64> {
+        self.covariance.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// Covariance of the whole robot block.
+    pub fn robot_covariance(&self) -> DMatrix<f64> {
+        self.covariance
+            .view((0, 0), (self.robot_dim, self.robot_dim))
+            .into_owned()
+    }
+
+    /// Position of landmark `i`, metres.
+    pub fn landmark(&self, i: usize) -> [f64; 2] {
+        let o = self.landmark_offset(i);
+        [self.mean[o], self.mean[o + 1]]
+    }
+
+    /// Covariance of landmark `i`'s position.
+    pub fn landmark_covariance(&self, i: usize) -> Matrix2<f64> {
+        let o = self.landmark_offset(i);
+        self.covariance.fixed_view::<2, 2>(o, o).into_owned()
+    }
+
+    /// Replaces the robot block after a motion step: `robot_mean` is the predicted robot
+    /// state, `f` the motion Jacobian with respect to the robot block and `q` the process
+    /// noise already mapped into robot coordinates. Costs O(n).
+    pub fn predict_robot(&mut self, robot_mean: &DVector<f64>, f: &DMatrix<f64>, q: &DMatrix<f64>) {
+        let r = self.robot_dim;
+        let n = self.dim();
+        debug_assert_eq!(robot_mean.len(), r);
+        self.mean.rows_mut(0, r).copy_from(robot_mean);
+        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
+        let p_rr = self.covariance.view((0, 0), (r, r)).into_owned();
+        let new_rr = f * p_rr * f.transpose() + q;
+        self.covariance.view_mut((0, 0), (r, r)).copy_from(&new_rr);
+        if n > r {
+            let p_rl = self.covariance.view((0, r), (r, n - r)).into_owned();
+            let new_rl = f * p_rl;
+            self.covariance
+                .view_mut((0, r), (r, n - r))
+                .copy_from(&new_rl);
+            self.covariance
+                .view_mut((r, 0), (n - r, r))
+                .copy_from(&new_rl.transpose());
+        }
+        debug_assert_symmetric!(self.covariance);
+    }
+
+    /// Appends a landmark at `position_m`, initialised from the robot pose: `d_pose` is the
+    /// Jacobian of the position with respect to the pose (the first three state entries),
+    /// and `noise` the covariance the measurement adds (already mapped into the plane).
+    /// Returns the new landmark's index.
+    pub fn add_landmark(
+        &mut self,
+        position_m: [f64; 2],
+        d_pose: &Matrix2x3<f64>,
+        noise: &Matrix2<f64>,
+    ) -> usize {
+        let n = self.dim();
+        let p_pose_all = self.covariance.rows(0, 3).into_owned();
+        let cross = d_pose * &p_pose_all; // 2 × n
+        let p_pp = self.pose_covariance();
+        let own = d_pose * p_pp * d_pose.transpose() + noise;
+
+        let mut covariance = DMatrix::zeros(n + 2, n + 2);
+        covariance
+            .view_mut((0, 0), (n, n))
+            .copy_from(&self.covariance);
+        covariance.view_mut((n, 0), (2, n)).copy_from(&cross);
+        covariance
+            .view_mut((0, n), (n, 2))
+            .copy_from(&cross.transpose());
+        covariance.view_mut((n, n), (2, 2)).copy_from(&own);
+        self.covariance = covariance;
+        self.mean = self.mean.clone().insert_rows(n, 2, 0.0);
+        self.mean[n] = position_m[0];
+        self.mean[n + 1] = position_m[1];
+        debug_assert_symmetric!(self.covariance);
+        self.landmark_count() - 1
+    }
+
+    /// Appends entries with the given mean and covariance blocks: `cross` is the covariance of
+    /// the new entries with the existing state (rows: new entries), `own` their covariance.
+    pub(crate) fn append(&mut self, mean: &DVector<f64>, cross: &DMatrix<f64>, own: &DMatrix<f64>) {
+        let n = self.dim();
+        let k = mean.len();
+        let mut covariance = DMatrix::zeros(n + k, n + k);
+        covariance
+            .view_mut((0, 0), (n, n))
+            .copy_from(&self.covariance);
+        covariance.view_mut((n, 0), (k, n)).copy_from(cross);
+        covariance
+            .view_mut((0, n), (n, k))
+            .copy_from(&cross.transpose());
+        covariance.view_mut((n, n), (k, k)).copy_from(own);
+        self.covariance = covariance;
+        let mut full = DVector::zeros(n + k);
+        full.rows_mut(0, n).copy_from(&self.mean);
+        full.rows_mut(n, k).copy_from(mean);
+        self.mean = full;
+    }
+
+    /// Removes the landmarks whose indices are listed (marginalising them out); the rest keep
+    /// their order.
+    pub fn remove_landmarks(&mut self, indices: &[usize]) {
+        if indices.is_empty() {
+            return;
+        }
+        let count = self.landmark_count();
+        let mut drop = vec![false; count];
+        for &i in indices {
+            if i < count {
+                drop[i] = true;
+            }
+        }
+        let keep: Vec<usize> = (0..self.robot_dim)
+            .chain((0..count).filter(|&i| !drop[i]).flat_map(|i| {
+                let o = self.robot_dim + 2 * i;
+                [o, o + 1]
+            }))
+            .collect();
+        self.mean = self.mean.select_rows(keep.iter());
+        self.covariance = self
+            .covariance
+            .select_rows(keep.iter())
+            .select_columns(keep.iter());
+    }
+
+    /// The innovation covariance `H P Hᵀ + R`.
+    pub fn innovation_covariance(&self, h: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
+        h * &self.covariance * h.transpose() + r
+    }
+
+    /// Applies a linearised measurement: `innovation = z − h(x̂)` (angles already wrapped),
+    /// `h` its Jacobian (m × n) and `r` its noise (m × m), with the Joseph form.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when `H P Hᵀ + R` has no Cholesky
+    /// factor (the state is left unchanged), [`EkfError::DimensionMismatch`] on sizes.
+    pub fn update(
+        &mut self,
+        innovation: &DVector<f64>,
+        h: &DMatrix<f64>,
+        r: &DMatrix<f64>,
+    ) -> Result<(), EkfError> {
+        let m = innovation.len();
+        let n = self.dim();
+        if h.shape() != (m, n) || r.shape() != (m, m) {
+            return Err(EkfError::DimensionMismatch {
+                rows: m,
+                state_dim: n,
+            });
+        }
+        if m == 0 {
+            return Ok(());
+        }
+        // Textbook names: p_ht = P Hᵀ, s = H P Hᵀ + R, k_gain = P Hᵀ S⁻¹.
+        let p_ht = &self.covariance * h.transpose();
+        let mut s = h * &p_ht + r;
+        s = (&s + s.transpose()) * 0.5;
+        let cholesky = s
+            .clone()
+            .cholesky()
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let k_gain = cholesky.solve(&p_ht.transpose()).transpose();
+        self.mean += &k_gain * innovation;
+        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
+        // Joseph form expanded: P − K (P Hᵀ)ᵀ − (P Hᵀ) Kᵀ + K S Kᵀ.
+        let k_pht = &k_gain * p_ht.transpose();
+        let k_s_k = &k_gain * s * k_gain.transpose();
+        let mut covariance = &self.covariance - &k_pht - k_pht.transpose() + k_s_k;
+        covariance = (&covariance + covariance.transpose()) * 0.5;
+        self.covariance = covariance;
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot_only() -> EkfState {
+        EkfState::new(
+            DVector::from_vec(vec![1.0, 2.0, 0.5]),
+            DMatrix::from_diagonal(&DVector::from_vec(vec![0.1, 0.2, 0.01])),
+        )
+    }
+
+    #[test]
+    fn landmark_added_and_removed() {
+        let mut state = robot_only();
+        let d_pose = Matrix2x3::new(1.0, 0.0, -1.0, 0.0, 1.0, 2.0);
+        let a = state.add_landmark([3.0, 4.0], &d_pose, &Matrix2::identity());
+        let b = state.add_landmark([5.0, 6.0], &d_pose, &Matrix2::identity());
+        assert_eq!((a, b, state.landmark_count()), (0, 1, 2));
+        assert_eq!(state.landmark(1), [5.0, 6.0]);
+        // Fully correlated with the pose through d_pose.
+        let expected =
+            d_pose * robot_only().pose_covariance() * d_pose.transpose() + Matrix2::identity();
+        assert!((state.landmark_covariance(0) - expected).amax() < 1e-12);
+        state.remove_landmarks(&[0]);
+        assert_eq!(state.landmark_count(), 1);
+        assert_eq!(state.landmark(0), [5.0, 6.0]);
+        assert_eq!(state.covariance().shape(), (5, 5));
+    }
+
+    #[test]
+    fn update_shrinks_covariance_and_moves_mean() {
+        let mut state = robot_only();
+        // Observe x directly: z = 1.5 with variance 0.1.
+        let h = DMatrix::from_row_slice(1, 3, &[1.0, 0.0, 0.0]);
+        let r = DMatrix::from_element(1, 1, 0.1);
+        state
+            .update(&DVector::from_element(1, 0.5), &h, &r)
+            .unwrap();
+        assert!((state.pose()[0] - 1.25).abs() < 1e-12);
+        assert!((state.covariance()[(0, 0)] - 0.05).abs() < 1e-12);
+    }
+
+    #[test]
+    fn singular_innovation_is_an_error() {
+        let mut state = EkfState::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        let h = DMatrix::from_row_slice(1, 3, &[1.0, 0.0, 0.0]);
+        let r = DMatrix::zeros(1, 1);
+        let before = state.clone();
+        let result = state.update(&DVector::from_element(1, 1.0), &h, &r);
+        assert_eq!(result, Err(EkfError::CovarianceNotPositiveDefinite));
+        assert_eq!(state, before);
+    }
+
+    #[test]
+    fn prediction_propagates_cross_covariance() {
+        let mut state = robot_only();
+        let d_pose = Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        state.add_landmark([3.0, 4.0], &d_pose, &Matrix2::identity());
+        let f = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, -1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0]);
+        let q = DMatrix::identity(3, 3) * 0.01;
+        let before = state.covariance().clone();
+        state.predict_robot(&DVector::from_vec(vec![1.5, 2.5, 0.6]), &f, &q);
+        let cross = state.covariance().view((0, 3), (3, 2)).into_owned();
+        let expected = &f * before.view((0, 3), (3, 2));
+        assert!((cross - expected).amax() < 1e-12);
+        assert_eq!(state.landmark(0), [3.0, 4.0]);
+    }
+}

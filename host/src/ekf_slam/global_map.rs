@@ -1,0 +1,283 @@
+//! The global map and map joining (Tardós et al. 2002): finished local maps are transformed
+//! into the global frame and joined, with the covariance propagated through the linearised
+//! join, and landmarks seen in both are fused by an exact equality constraint.
+//!
+//! The global state is `[robot pose (3), landmarks...]` where the robot pose is the base frame
+//! of the local map being built. Joining local map `L` (robot `r`, landmarks `l_i` in its
+//! base frame `B`) gives `[B ⊕ r, global landmarks, B ⊕ l_i]`, with
+//! `P⁺ = J_G P_G J_Gᵀ + J_L P_L J_Lᵀ` (the two maps are independent). Its landmarks are then
+//! paired with the global ones by the individual gate and JCBB on `l_new − l_old`, each pair
+//! is imposed as the measurement `l_new − l_old = 0` and the duplicate is removed. Only the
+//! pairing update touches the whole covariance (O(N² p) for `p` pairs).
+
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
+
+use super::ekf_state::{EkfError, EkfState};
+use super::frames::{compose_pose, transform_point};
+use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
+use super::landmark_info::LandmarkInfo;
+use super::local_map::LocalMap;
+use super::options::AssociationOptions;
+
+/// Noise of the equality constraint between two records of one landmark, metres (tiny: it
+/// only keeps the innovation covariance invertible).
+const FUSION_SIGMA_M: f64 = 1e-3;
+
+/// What one join did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct JoinReport {
+    /// Landmarks of the local map fused with global ones.
+    pub fused: usize,
+    /// Landmarks of the local map added as new global landmarks.
+    pub added: usize,
+    /// Fused landmarks first mapped at least two local maps earlier: the robot is back in a
+    /// place it left before (a loop closed), not just overlapping the previous local map.
+    pub revisited: usize,
+}
+
+/// The joined map. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GlobalMap {
+    state: EkfState,
+    info: Vec<LandmarkInfo>,
+    /// The local map (index into `bases_in_map`) each landmark was first mapped in.
+    origin_map: Vec<usize>,
+    bases_in_map: Vec<[f64; 3]>,
+}
+
+impl GlobalMap {
+    /// An empty map whose first local map starts at `pose_in_map` with covariance
+    /// `pose_covariance`.
+    pub fn new(pose_in_map: [f64; 3], pose_covariance: Matrix3<f64>) -> GlobalMap {
+        GlobalMap {
+            state: EkfState::new(
+                DVector::from_row_slice(&pose_in_map),
+                DMatrix::from_column_slice(3, 3, pose_covariance.as_slice()),
+            ),
+            info: Vec::new(),
+            origin_map: Vec::new(),
+            bases_in_map: vec![pose_in_map],
+        }
+    }
+
+    /// The joined state: robot pose (the current base frame), then landmarks.
+    pub fn state(&self) -> &EkfState {
+        &self.state
+    }
+
+    /// Bookkeeping of each landmark, in state order.
+    pub fn landmark_info(&self) -> &[LandmarkInfo] {
+        &self.info
+    }
+
+    /// The base frame of every local map so far, in the global frame (the base of the local
+    /// map being built last), as estimated when each was started.
+    pub fn bases_in_map(&self) -> &[[f64; 3]] {
+        &self.bases_in_map
+    }
+
+    /// The base frame of the local map being built.
+    pub fn current_base(&self) -> [f64; 3] {
+        self.state.pose()
+    }
+
+    /// Re-expresses the whole map in another frame: `new_from_old` maps the current map frame
+    /// into the new one (for example `enu_from_map` once GPS has fixed the alignment).
+    pub fn transform(&mut self, new_from_old: [f64; 3]) {
+        let n = self.state.dim();
+        let mut mean = self.state.mean().clone();
+        let mut jacobian = DMatrix::zeros(n, n);
+        let (pose, _, d_pose) = compose_pose(new_from_old, self.state.pose());
+        mean.rows_mut(0, 3).copy_from_slice(&pose);
+        jacobian.view_mut((0, 0), (3, 3)).copy_from(&d_pose);
+        for i in 0..self.state.landmark_count() {
+            let (point, _, d_point) = transform_point(new_from_old, self.state.landmark(i));
+            let o = self.state.landmark_offset(i);
+            mean.rows_mut(o, 2).copy_from_slice(&point);
+            jacobian.view_mut((o, o), (2, 2)).copy_from(&d_point);
+        }
+        let covariance = &jacobian * self.state.covariance() * jacobian.transpose();
+        self.state = EkfState::from_parts(mean, covariance, 3);
+        for base in &mut self.bases_in_map {
+            *base = compose_pose(new_from_old, *base).0;
+        }
+    }
+
+    /// Joins `local` (built in the current base frame) and fuses the landmarks found in both.
+    ///
+    /// # Errors
+    /// [`EkfError`] when the fusion update fails; the local map is then joined without fusion.
+    pub fn join(
+        &mut self,
+        local: LocalMap,
+        options: &AssociationOptions,
+    ) -> Result<JoinReport, EkfError> {
+        let (local_state, local_info) = local.into_parts();
+        let base = self.state.pose();
+        let n_global = self.state.dim();
+        let n_local = local_state.dim();
+        let local_robot_dim = local_state.robot_dim();
+        let count = local_state.landmark_count();
+        let k = 3 + 2 * count;
+
+        // The new entries (robot, then landmarks) and their Jacobians with respect to the
+        // base (global entries 0..3) and to the local state.
+        let mut mean = DVector::zeros(k);
+        let mut d_base = DMatrix::zeros(k, 3);
+        let mut d_local = DMatrix::zeros(k, n_local);
+        let (robot, d_b, d_r) = compose_pose(base, local_state.pose());
+        mean.rows_mut(0, 3).copy_from_slice(&robot);
+        d_base.view_mut((0, 0), (3, 3)).copy_from(&d_b);
+        d_local.view_mut((0, 0), (3, 3)).copy_from(&d_r);
+        for i in 0..count {
+            let (point, d_b, d_l) = transform_point(base, local_state.landmark(i));
+            let row = 3 + 2 * i;
+            mean.rows_mut(row, 2).copy_from_slice(&point);
+            d_base.view_mut((row, 0), (2, 3)).copy_from(&d_b);
+            d_local
+                .view_mut((row, local_robot_dim + 2 * i), (2, 2))
+                .copy_from(&d_l);
+        }
+        let p_base_all = self.state.covariance().rows(0, 3).into_owned();
+        let cross = &d_base * &p_base_all;
+        let p_base = self.state.covariance().view((0, 0), (3, 3)).into_owned();
+        let own = &d_base * p_base * d_base.transpose()
+            + &d_local * local_state.covariance() * d_local.transpose();
+        self.state.append(&mean, &cross, &own);
+
+        // Move the new robot to the front in place of the old base: [r', M, L'].
+        let order: Vec<usize> = (n_global..n_global + 3)
+            .chain(3..n_global)
+            .chain(n_global + 3..n_global + k)
+            .collect();
+        self.state = EkfState::from_parts(
+            self.state.mean().select_rows(order.iter()),
+            self.state
+                .covariance()
+                .select_rows(order.iter())
+                .select_columns(order.iter()),
+            3,
+        );
+        let old_count = self.info.len();
+        let joined_map = self.bases_in_map.len() - 1;
+        self.info.extend(local_info);
+        self.origin_map
+            .extend(std::iter::repeat_n(joined_map, count));
+        self.bases_in_map.push(self.state.pose());
+
+        let pairs = self.pair(old_count, options);
+        let revisited = pairs
+            .iter()
+            .filter(|&&(_, old)| self.origin_map[old] + 1 < joined_map)
+            .count();
+        self.fuse(&pairs)?;
+        Ok(JoinReport {
+            fused: pairs.len(),
+            added: count - pairs.len(),
+            revisited,
+        })
+    }
+
+    /// Pairs the landmarks from `first_new` on with the older ones: `(new, old)` indices.
+    fn pair(&self, first_new: usize, options: &AssociationOptions) -> Vec<(usize, usize)> {
+        let gate = chi_square_quantile(2, options.individual_confidence);
+        let covariance = self.state.covariance();
+        let noise = Matrix2::identity() * FUSION_SIGMA_M.powi(2);
+        let total = self.info.len();
+        let mut candidates = Vec::with_capacity(total - first_new);
+        for new in first_new..total {
+            let position = self.state.landmark(new);
+            let mut list = Vec::new();
+            for old in 0..first_new {
+                let other = self.state.landmark(old);
+                let innovation =
+                    nalgebra::Vector2::new(other[0] - position[0], other[1] - position[1]);
+                // Cheap rejection: no two records of a trunk lie 20 m apart after a join.
+                if innovation.norm() > 20.0 {
+                    continue;
+                }
+                if !self.info[old].diameter_compatible(
+                    self.info[new].diameter_m,
+                    options.diameter_tolerance_m,
+                    options.diameter_tolerance_fraction,
+                ) {
+                    continue;
+                }
+                let jacobian = vec![
+                    JacobianBlock {
+                        column: self.state.landmark_offset(new),
+                        matrix: DMatrix::identity(2, 2),
+                    },
+                    JacobianBlock {
+                        column: self.state.landmark_offset(old),
+                        matrix: -DMatrix::identity(2, 2),
+                    },
+                ];
+                let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
+                let Some(s_inv) = s.try_inverse() else {
+                    continue;
+                };
+                let distance2 = (innovation.transpose() * s_inv * innovation)[0];
+                if distance2 < gate {
+                    list.push(PairingCandidate {
+                        target: old,
+                        innovation,
+                        jacobian,
+                        distance2,
+                    });
+                }
+            }
+            list.sort_by(|a, b| a.distance2.total_cmp(&b.distance2));
+            candidates.push(list);
+        }
+        let noises = vec![noise; candidates.len()];
+        jcbb(&candidates, &noises, covariance, &options.jcbb)
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, old)| old.map(|old| (first_new + i, old)))
+            .collect()
+    }
+
+    /// Imposes `l_new = l_old` for every pair and removes the new records.
+    fn fuse(&mut self, pairs: &[(usize, usize)]) -> Result<(), EkfError> {
+        if pairs.is_empty() {
+            return Ok(());
+        }
+        let n = self.state.dim();
+        let m = 2 * pairs.len();
+        let mut h = DMatrix::zeros(m, n);
+        let mut innovation = DVector::zeros(m);
+        for (row, &(new, old)) in pairs.iter().enumerate() {
+            let (a, b) = (self.state.landmark(new), self.state.landmark(old));
+            innovation[2 * row] = b[0] - a[0];
+            innovation[2 * row + 1] = b[1] - a[1];
+            let (cn, co) = (
+                self.state.landmark_offset(new),
+                self.state.landmark_offset(old),
+            );
+            for d in 0..2 {
+                h[(2 * row + d, cn + d)] = 1.0;
+                h[(2 * row + d, co + d)] = -1.0;
+            }
+        }
+        let r = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
+        self.state.update(&innovation, &h, &r)?;
+        let mut removed: Vec<usize> = pairs.iter().map(|&(new, _)| new).collect();
+        for &(new, old) in pairs {
+            let record = self.info[new];
+            self.info[old].merge(&record);
+        }
+        removed.sort_unstable();
+        self.state.remove_landmarks(&removed);
+        let keep = |index: usize| removed.binary_search(&index).is_err();
+        self.info = (0..self.info.len())
+            .filter(|&i| keep(i))
+            .map(|i| self.info[i])
+            .collect();
+        self.origin_map = (0..self.origin_map.len())
+            .filter(|&i| keep(i))
+            .map(|i| self.origin_map[i])
+            .collect();
+        Ok(())
+    }
+}

@@ -1,0 +1,256 @@
+//! One local map: an EKF over the robot and the landmarks seen since the map was started,
+//! expressed in the map's base frame (the robot pose when it started).
+//!
+//! A local map starts with the robot at the origin of its base frame with zero uncertainty,
+//! so it is statistically independent of every earlier local map (Tardós et al., "Robust
+//! mapping and localization in indoor environments using sonar data", IJRR 2002); its size is
+//! bounded, so each of its steps costs the same however large the global map grows.
+
+use nalgebra::{DMatrix, DVector, Matrix2};
+
+use super::ekf_state::{EkfError, EkfState};
+use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
+use super::landmark_info::LandmarkInfo;
+use super::motion_model::MotionModel;
+use super::options::AssociationOptions;
+use super::range_bearing::{LandmarkObservation, RangeBearingModel};
+
+/// What one batch of observations did to the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ObservationReport {
+    /// Observations paired with a landmark and used in the update.
+    pub associated: usize,
+    /// Observations that started a landmark.
+    pub new_landmarks: usize,
+    /// Observations dropped as ambiguous (close to a landmark but not jointly compatible).
+    pub ambiguous: usize,
+}
+
+/// An EKF local map. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalMap {
+    state: EkfState,
+    info: Vec<LandmarkInfo>,
+}
+
+impl LocalMap {
+    /// A local map whose robot block starts as `robot_mean` / `robot_covariance`, the pose
+    /// entries at the origin of the base frame.
+    pub fn new(robot_mean: DVector<f64>, robot_covariance: DMatrix<f64>) -> LocalMap {
+        LocalMap {
+            state: EkfState::new(robot_mean, robot_covariance),
+            info: Vec::new(),
+        }
+    }
+
+    /// The filter state in the base frame.
+    pub fn state(&self) -> &EkfState {
+        &self.state
+    }
+
+    /// Bookkeeping of each landmark, in state order.
+    pub fn landmark_info(&self) -> &[LandmarkInfo] {
+        &self.info
+    }
+
+    /// Number of landmarks.
+    pub fn landmark_count(&self) -> usize {
+        self.info.len()
+    }
+
+    /// Moves the robot over `dt_s` seconds.
+    pub fn predict<M: MotionModel>(&mut self, model: &M, input: &M::Input, dt_s: f64) {
+        if dt_s <= 0.0 || !dt_s.is_finite() {
+            return;
+        }
+        let prediction = model.predict(&self.state.robot(), input, dt_s);
+        self.state
+            .predict_robot(&prediction.robot, &prediction.f, &prediction.q);
+    }
+
+    /// Pairs one scan's observations with the map (individual gate, then JCBB), updates the
+    /// filter with the pairs, and starts landmarks for clearly new observations.
+    ///
+    /// # Errors
+    /// [`EkfError`] when the update's innovation covariance is not positive definite; the
+    /// map is then left as it was before the update.
+    pub fn observe(
+        &mut self,
+        observations: &[LandmarkObservation],
+        sensor: &RangeBearingModel,
+        options: &AssociationOptions,
+    ) -> Result<ObservationReport, EkfError> {
+        let pose = self.state.pose();
+        let noise = sensor.noise();
+        let gate = chi_square_quantile(2, options.individual_confidence);
+        let covariance = self.state.covariance();
+        let mut candidates: Vec<Vec<PairingCandidate>> = Vec::with_capacity(observations.len());
+        let mut nearest_distance2 = vec![f64::INFINITY; observations.len()];
+        for (i, observation) in observations.iter().enumerate() {
+            let mut list = Vec::new();
+            for (j, info) in self.info.iter().enumerate() {
+                let landmark = self.state.landmark(j);
+                let Some(predicted) = sensor.predict(pose, landmark) else {
+                    continue;
+                };
+                // Cheap rejection before the covariance products: more than 10 m off in range.
+                if (observation.range_m - predicted.z[0]).abs() > 10.0 {
+                    continue;
+                }
+                let jacobian = vec![
+                    JacobianBlock {
+                        column: 0,
+                        matrix: DMatrix::from_column_slice(2, 3, predicted.d_pose.as_slice()),
+                    },
+                    JacobianBlock {
+                        column: self.state.landmark_offset(j),
+                        matrix: DMatrix::from_column_slice(2, 2, predicted.d_landmark.as_slice()),
+                    },
+                ];
+                let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
+                let innovation = RangeBearingModel::innovation(observation, &predicted);
+                let Some(s_inv) = s.try_inverse() else {
+                    continue;
+                };
+                let distance2 = (innovation.transpose() * s_inv * innovation)[0];
+                nearest_distance2[i] = nearest_distance2[i].min(distance2);
+                let diameter_ok = info.diameter_compatible(
+                    observation.diameter_m,
+                    options.diameter_tolerance_m,
+                    options.diameter_tolerance_fraction,
+                );
+                if distance2 < gate && diameter_ok {
+                    list.push(PairingCandidate {
+                        target: j,
+                        innovation,
+                        jacobian,
+                        distance2,
+                    });
+                }
+            }
+            list.sort_by(|a, b| a.distance2.total_cmp(&b.distance2));
+            candidates.push(list);
+        }
+        let noises = vec![noise; observations.len()];
+        let pairing = jcbb(&candidates, &noises, covariance, &options.jcbb);
+
+        // One stacked update with every pair.
+        let pairs: Vec<(usize, &PairingCandidate)> = pairing
+            .iter()
+            .enumerate()
+            .filter_map(|(i, target)| {
+                target.and_then(|t| candidates[i].iter().find(|c| c.target == t).map(|c| (i, c)))
+            })
+            .collect();
+        let n = self.state.dim();
+        let m = 2 * pairs.len();
+        let mut h = DMatrix::zeros(m, n);
+        let mut innovation = DVector::zeros(m);
+        let mut r = DMatrix::zeros(m, m);
+        for (row, (_, candidate)) in pairs.iter().enumerate() {
+            for block in &candidate.jacobian {
+                h.view_mut((2 * row, block.column), (2, block.matrix.ncols()))
+                    .copy_from(&block.matrix);
+            }
+            innovation
+                .fixed_rows_mut::<2>(2 * row)
+                .copy_from(&candidate.innovation);
+            r.fixed_view_mut::<2, 2>(2 * row, 2 * row).copy_from(&noise);
+        }
+        self.state.update(&innovation, &h, &r)?;
+        for (i, candidate) in &pairs {
+            self.info[candidate.target].observe(observations[*i].diameter_m);
+        }
+
+        let mut report = ObservationReport {
+            associated: pairs.len(),
+            ..ObservationReport::default()
+        };
+        let pose = self.state.pose();
+        for (i, observation) in observations.iter().enumerate() {
+            if pairing[i].is_some() {
+                continue;
+            }
+            if nearest_distance2[i] <= options.new_landmark_distance2 {
+                report.ambiguous += 1;
+                continue;
+            }
+            self.add_landmark(pose, observation, sensor, &noise);
+            report.new_landmarks += 1;
+        }
+        Ok(report)
+    }
+
+    /// Starts a landmark where `observation` puts it.
+    fn add_landmark(
+        &mut self,
+        pose: [f64; 3],
+        observation: &LandmarkObservation,
+        sensor: &RangeBearingModel,
+        noise: &Matrix2<f64>,
+    ) {
+        let (position, d_pose, d_obs) =
+            sensor.landmark_position(pose, observation.range_m, observation.bearing_rad);
+        let added_noise = d_obs * noise * d_obs.transpose();
+        self.state.add_landmark(position, &d_pose, &added_noise);
+        self.info
+            .push(LandmarkInfo::first_seen(observation.diameter_m));
+    }
+
+    /// Drops landmarks seen fewer than `min_observations` times (marginalising them out).
+    pub fn prune(&mut self, min_observations: u32) {
+        let drop: Vec<usize> = self
+            .info
+            .iter()
+            .enumerate()
+            .filter(|(_, info)| info.observations < min_observations)
+            .map(|(i, _)| i)
+            .collect();
+        self.state.remove_landmarks(&drop);
+        let mut index = 0;
+        self.info.retain(|_| {
+            let keep = drop.binary_search(&index).is_err();
+            index += 1;
+            keep
+        });
+    }
+
+    /// Applies a direct measurement of the robot's position in the base frame, with
+    /// covariance `noise` (for GPS, already including the base frame's own uncertainty),
+    /// unless its squared Mahalanobis distance exceeds `gate_distance2`. Returns whether it
+    /// was applied.
+    ///
+    /// # Errors
+    /// [`EkfError`] when the innovation covariance is not positive definite.
+    pub fn observe_position(
+        &mut self,
+        position_in_base: [f64; 2],
+        noise: &Matrix2<f64>,
+        gate_distance2: f64,
+    ) -> Result<bool, EkfError> {
+        let n = self.state.dim();
+        let pose = self.state.pose();
+        let innovation = DVector::from_vec(vec![
+            position_in_base[0] - pose[0],
+            position_in_base[1] - pose[1],
+        ]);
+        let mut h = DMatrix::zeros(2, n);
+        h[(0, 0)] = 1.0;
+        h[(1, 1)] = 1.0;
+        let r = DMatrix::from_column_slice(2, 2, noise.as_slice());
+        let s = self.state.innovation_covariance(&h, &r);
+        let Some(s_inv) = s.try_inverse() else {
+            return Err(EkfError::CovarianceNotPositiveDefinite);
+        };
+        if innovation.dot(&(s_inv * &innovation)) > gate_distance2 {
+            return Ok(false);
+        }
+        self.state.update(&innovation, &h, &r)?;
+        Ok(true)
+    }
+
+    /// Mutable access to the state for the map-joining step.
+    pub(crate) fn into_parts(self) -> (EkfState, Vec<LandmarkInfo>) {
+        (self.state, self.info)
+    }
+}

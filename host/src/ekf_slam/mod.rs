@@ -1,0 +1,38 @@
+//! Method 1: EKF SLAM over the robot and point landmarks, with size-limited local maps joined
+//! into one global map.
+//!
+//! * [`EkfState`]: mean and full covariance, Joseph-form updates.
+//! * Motion models ([`MotionModel`]): [`AckermannModel`] (car odometry, with online
+//!   calibration of speed scale and steering offset), [`DifferentialDriveModel`] and
+//!   [`ConstantVelocityModel`] (no odometry).
+//! * [`RangeBearingModel`]: range-bearing observations of point landmarks.
+//! * [`jcbb`]: data association by joint compatibility.
+//! * [`LocalMap`] and [`GlobalMap`]: local maps and map joining (Tardós et al. 2002).
+//! * [`SubmapSlam`]: the pipeline.
+
+pub mod ackermann;
+pub mod constant_velocity;
+pub mod differential_drive;
+pub mod ekf_state;
+pub mod frames;
+pub mod global_map;
+pub mod jcbb;
+pub mod landmark_info;
+pub mod local_map;
+pub mod motion_model;
+pub mod options;
+pub mod range_bearing;
+pub mod submap_slam;
+
+pub use ackermann::{AckermannGeometry, AckermannInput, AckermannModel};
+pub use constant_velocity::ConstantVelocityModel;
+pub use differential_drive::{DifferentialDriveInput, DifferentialDriveModel};
+pub use ekf_state::{EkfError, EkfState};
+pub use global_map::{GlobalMap, JoinReport};
+pub use jcbb::{JcbbOptions, jcbb};
+pub use landmark_info::LandmarkInfo;
+pub use local_map::{LocalMap, ObservationReport};
+pub use motion_model::{MotionModel, MotionPrediction};
+pub use options::{AssociationOptions, SubmapSlamOptions};
+pub use range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
+pub use submap_slam::{MappedLandmark, SubmapSlam, SubmapSlamStats};
