@@ -180,20 +180,23 @@ enum Command {
         #[arg(long)]
         duration_s: Option<f64>,
         /// Standard deviation of a tree's range, m.
-        #[arg(long, default_value_t = 0.5)]
+        #[arg(long, default_value_t = 1.0)]
         sigma_range_m: f64,
         /// Standard deviation of a tree's bearing, degrees.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 3.0)]
         sigma_bearing_deg: f64,
         /// Standard deviation of the measured wheel speed, m/s.
-        #[arg(long, default_value_t = 0.1)]
+        #[arg(long, default_value_t = 0.5)]
         sigma_speed_mps: f64,
         /// Standard deviation of the measured steering angle, degrees.
-        #[arg(long, default_value_t = 1.5)]
+        #[arg(long, default_value_t = 5.0)]
         sigma_steer_deg: f64,
         /// Lateral offset of the laser, m, positive to the left.
         #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
         laser_left_m: f64,
+        /// Distance of the laser ahead of the rear axle, m.
+        #[arg(long, default_value_t = 3.78)]
+        laser_ahead_m: f64,
     },
     /// Match consecutive scan pairs of a CARMEN log with the reference raster matcher and the
     /// fast matcher on the same table; prints per-pair timings on stderr and, as the last
@@ -494,6 +497,7 @@ fn main() -> ExitCode {
             sigma_speed_mps,
             sigma_steer_deg,
             laser_left_m,
+            laser_ahead_m,
         } => {
             let mut options = hil_sim::victoria_slam::VictoriaSlamOptions::new(dir, out);
             options.use_gps = !no_gps;
@@ -508,6 +512,7 @@ fn main() -> ExitCode {
             options.duration_s = duration_s;
             options.sensor.sigma_range_m = sigma_range_m;
             options.sensor.sigma_bearing_rad = sigma_bearing_deg.to_radians();
+            options.sensor.sensor_in_robot[0] = laser_ahead_m;
             options.sensor.sensor_in_robot[1] = laser_left_m;
             options.motion.sigma_speed_mps = sigma_speed_mps;
             options.motion.sigma_steer_rad = sigma_steer_deg.to_radians();

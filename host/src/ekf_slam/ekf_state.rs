@@ -285,9 +285,27 @@ impl EkfState {
         if m == 0 {
             return Ok(());
         }
-        // Textbook names: p_ht = P Hᵀ, s = H P Hᵀ + R, k_gain = P Hᵀ S⁻¹.
-        let p_ht = &self.covariance * h.transpose();
-        let mut s = h * &p_ht + r;
+        // Textbook names: p_ht = P Hᵀ, s = H P Hᵀ + R, k_gain = P Hᵀ S⁻¹. H is sparse (a
+        // measurement touches a few state entries), so P Hᵀ and H P Hᵀ are summed over its
+        // non-zeros: O(n · nnz) instead of O(n² m).
+        let nonzeros: Vec<(usize, usize, f64)> = (0..m)
+            .flat_map(|row| (0..n).map(move |col| (row, col)))
+            .filter_map(|(row, col)| {
+                let value = h[(row, col)];
+                (value != 0.0).then_some((row, col, value))
+            })
+            .collect();
+        let mut p_ht = DMatrix::zeros(n, m);
+        for &(row, col, value) in &nonzeros {
+            p_ht.column_mut(row)
+                .axpy(value, &self.covariance.column(col), 1.0);
+        }
+        let mut s = r.clone();
+        for &(row, col, value) in &nonzeros {
+            for other in 0..m {
+                s[(row, other)] += value * p_ht[(col, other)];
+            }
+        }
         s = (&s + s.transpose()) * 0.5;
         let cholesky = s
             .clone()
@@ -296,12 +314,19 @@ impl EkfState {
         let k_gain = cholesky.solve(&p_ht.transpose()).transpose();
         self.mean += &k_gain * innovation;
         self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
-        // Joseph form expanded: P − K (P Hᵀ)ᵀ − (P Hᵀ) Kᵀ + K S Kᵀ.
-        let k_pht = &k_gain * p_ht.transpose();
-        let k_s_k = &k_gain * s * k_gain.transpose();
-        let mut covariance = &self.covariance - &k_pht - k_pht.transpose() + k_s_k;
-        covariance = (&covariance + covariance.transpose()) * 0.5;
-        self.covariance = covariance;
+        // Joseph form, P⁺ = P − K (P Hᵀ)ᵀ − (P Hᵀ) Kᵀ + K S Kᵀ, rewritten as
+        // P − K (P Hᵀ)ᵀ + (K S − P Hᵀ) Kᵀ so it takes two in-place products.
+        let gain_residual = &k_gain * &s - &p_ht;
+        self.covariance.gemm(-1.0, &k_gain, &p_ht.transpose(), 1.0);
+        self.covariance
+            .gemm(1.0, &gain_residual, &k_gain.transpose(), 1.0);
+        for a in 0..n {
+            for b in 0..a {
+                let mean = 0.5 * (self.covariance[(a, b)] + self.covariance[(b, a)]);
+                self.covariance[(a, b)] = mean;
+                self.covariance[(b, a)] = mean;
+            }
+        }
         debug_assert_symmetric!(self.covariance);
         Ok(())
     }

@@ -66,17 +66,20 @@ pub fn cross_covariance(
     let mut sum = Matrix2::zeros();
     for block_a in a {
         for block_b in b {
-            let p = covariance.view(
-                (block_a.column, block_b.column),
-                (block_a.matrix.ncols(), block_b.matrix.ncols()),
-            );
-            let product = &block_a.matrix * p * block_b.matrix.transpose();
-            sum += Matrix2::new(
-                product[(0, 0)],
-                product[(0, 1)],
-                product[(1, 0)],
-                product[(1, 1)],
-            );
+            for r in 0..block_a.matrix.ncols() {
+                for c in 0..block_b.matrix.ncols() {
+                    let p = covariance[(block_a.column + r, block_b.column + c)];
+                    if p == 0.0 {
+                        continue;
+                    }
+                    for i in 0..2 {
+                        let ap = block_a.matrix[(i, r)] * p;
+                        for j in 0..2 {
+                            sum[(i, j)] += ap * block_b.matrix[(j, c)];
+                        }
+                    }
+                }
+            }
         }
     }
     sum
@@ -104,18 +107,41 @@ pub fn jcbb(
     let thresholds: Vec<f64> = (0..=m)
         .map(|k| chi_square_quantile(2 * k.max(1), options.confidence))
         .collect();
+    // Every pairing's cross-covariance with every other, computed once: the search only
+    // assembles blocks.
+    let offsets: Vec<usize> = candidates
+        .iter()
+        .scan(0, |next, list| {
+            let first = *next;
+            *next += list.len();
+            Some(first)
+        })
+        .collect();
+    let flat: Vec<&PairingCandidate> = candidates.iter().flatten().collect();
+    let mut cross = vec![Matrix2::zeros(); flat.len() * flat.len()];
+    for (a, pa) in flat.iter().enumerate() {
+        for (b, pb) in flat.iter().enumerate().skip(a) {
+            let block = cross_covariance(covariance, &pa.jacobian, &pb.jacobian);
+            cross[a * flat.len() + b] = block;
+            cross[b * flat.len() + a] = block.transpose();
+        }
+    }
     let mut search = Search {
         candidates,
         noise,
-        covariance,
+        offsets,
+        cross,
+        flat_len: flat.len(),
         thresholds,
         best: vec![None; m],
         best_pairings: 0,
         best_distance2: f64::INFINITY,
         nodes_left: options.max_nodes,
+        factor: DMatrix::zeros(2 * m, 2 * m),
+        whitened: DVector::zeros(2 * m),
     };
     let mut hypothesis = vec![None; m];
-    search.descend(0, &mut hypothesis, 0);
+    search.descend(0, &mut hypothesis, 0, 0.0);
     search
         .best
         .iter()
@@ -128,7 +154,15 @@ pub fn jcbb(
 struct Search<'a> {
     candidates: &'a [Vec<PairingCandidate>],
     noise: &'a [Matrix2<f64>],
-    covariance: &'a DMatrix<f64>,
+    /// Index of each measurement's first candidate in the flat list.
+    offsets: Vec<usize>,
+    /// `H_a P H_bᵀ` for flat candidates `a`, `b`, row-major.
+    cross: Vec<Matrix2<f64>>,
+    flat_len: usize,
+    /// Lower Cholesky factor of the current hypothesis's joint covariance (top-left block).
+    factor: DMatrix<f64>,
+    /// The current hypothesis's innovation whitened by `factor`.
+    whitened: DVector<f64>,
     thresholds: Vec<f64>,
     best: Vec<Option<usize>>,
     best_pairings: usize,
@@ -138,21 +172,28 @@ struct Search<'a> {
 
 impl Search<'_> {
     /// Explores measurement `i` onwards with `pairings` pairings so far in `hypothesis`
-    /// (entries: index into the measurement's candidate list).
-    fn descend(&mut self, i: usize, hypothesis: &mut Vec<Option<usize>>, pairings: usize) {
+    /// (entries: index into the measurement's candidate list) whose joint squared distance
+    /// is `distance2`; rows `0..2·pairings` of `self.factor` and `self.whitened` hold the
+    /// Cholesky factor of their joint covariance and the whitened innovation.
+    fn descend(
+        &mut self,
+        i: usize,
+        hypothesis: &mut Vec<Option<usize>>,
+        pairings: usize,
+        distance2: f64,
+    ) {
         if self.nodes_left == 0 {
             return;
         }
         self.nodes_left -= 1;
         let m = self.candidates.len();
         if i == m {
-            if pairings > 0 && pairings >= self.best_pairings {
-                let distance2 = self.joint_distance2(hypothesis).unwrap_or(f64::INFINITY);
-                if pairings > self.best_pairings || distance2 < self.best_distance2 {
-                    self.best = hypothesis.clone();
-                    self.best_pairings = pairings;
-                    self.best_distance2 = distance2;
-                }
+            let better = pairings > self.best_pairings
+                || (pairings == self.best_pairings && distance2 < self.best_distance2);
+            if pairings > 0 && better {
+                self.best = hypothesis.clone();
+                self.best_pairings = pairings;
+                self.best_distance2 = distance2;
             }
             return;
         }
@@ -164,46 +205,85 @@ impl Search<'_> {
             if taken {
                 continue;
             }
-            hypothesis[i] = Some(c);
-            let compatible = self
-                .joint_distance2(hypothesis)
-                .is_some_and(|d2| d2 < self.thresholds[pairings + 1]);
-            if compatible {
-                self.descend(i + 1, hypothesis, pairings + 1);
+            let Some(added) = self.extend(hypothesis, i, c, pairings) else {
+                continue;
+            };
+            if distance2 + added < self.thresholds[pairings + 1] {
+                hypothesis[i] = Some(c);
+                self.descend(i + 1, hypothesis, pairings + 1, distance2 + added);
+                hypothesis[i] = None;
             }
-            hypothesis[i] = None;
         }
         // Leaving measurement i unpaired can only win if the rest could still beat the best.
         if pairings + (m - i - 1) >= self.best_pairings.max(1) {
-            self.descend(i + 1, hypothesis, pairings);
+            self.descend(i + 1, hypothesis, pairings, distance2);
         }
     }
 
-    /// The joint squared Mahalanobis distance of `hypothesis`, `None` if its covariance is
-    /// not positive definite.
-    fn joint_distance2(&self, hypothesis: &[Option<usize>]) -> Option<f64> {
-        let pairs: Vec<(usize, &PairingCandidate)> = hypothesis
+    /// Extends the Cholesky factor of the hypothesis's joint covariance by pairing
+    /// measurement `i` with its candidate `c` as pairing number `k` (rows `2k`, `2k + 1`), and
+    /// returns what the pairing adds to the joint squared distance; `None` when the joint
+    /// covariance is not positive definite. O(k²) instead of refactoring the whole matrix.
+    fn extend(
+        &mut self,
+        hypothesis: &[Option<usize>],
+        i: usize,
+        c: usize,
+        k: usize,
+    ) -> Option<f64> {
+        let flat = self.offsets[i] + c;
+        let earlier: Vec<(usize, usize)> = hypothesis[..i]
             .iter()
             .enumerate()
-            .filter_map(|(i, choice)| choice.map(|c| (i, &self.candidates[i][c])))
+            .filter_map(|(j, choice)| choice.map(|cj| (j, self.offsets[j] + cj)))
             .collect();
-        let k = pairs.len();
-        let mut s = DMatrix::zeros(2 * k, 2 * k);
-        let mut nu = DVector::zeros(2 * k);
-        for (a, (i, pa)) in pairs.iter().enumerate() {
-            nu.fixed_rows_mut::<2>(2 * a).copy_from(&pa.innovation);
-            for (b, (_, pb)) in pairs.iter().enumerate().skip(a) {
-                let mut block = cross_covariance(self.covariance, &pa.jacobian, &pb.jacobian);
-                if a == b {
-                    block += self.noise[*i];
+        debug_assert_eq!(earlier.len(), k);
+        // Solve L11 x = s for each of the two new rows of S21 (forward substitution).
+        let mut rows = [vec![0.0; 2 * k], vec![0.0; 2 * k]];
+        for (r, row) in rows.iter_mut().enumerate() {
+            for (a, &(_, fa)) in earlier.iter().enumerate() {
+                let block = self.cross[flat * self.flat_len + fa];
+                row[2 * a] = block[(r, 0)];
+                row[2 * a + 1] = block[(r, 1)];
+            }
+            for q in 0..2 * k {
+                let mut value = row[q];
+                for p in 0..q {
+                    value -= self.factor[(q, p)] * row[p];
                 }
-                s.fixed_view_mut::<2, 2>(2 * a, 2 * b).copy_from(&block);
-                s.fixed_view_mut::<2, 2>(2 * b, 2 * a)
-                    .copy_from(&block.transpose());
+                row[q] = value / self.factor[(q, q)];
             }
         }
-        let cholesky = s.cholesky()?;
-        Some(nu.dot(&cholesky.solve(&nu)))
+        let own = self.cross[flat * self.flat_len + flat] + self.noise[i];
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let m00 = own[(0, 0)] - dot(&rows[0], &rows[0]);
+        let m10 = own[(1, 0)] - dot(&rows[1], &rows[0]);
+        let m11 = own[(1, 1)] - dot(&rows[1], &rows[1]);
+        if m00.is_nan() || m00 <= 0.0 {
+            return None;
+        }
+        let l00 = m00.sqrt();
+        let l10 = m10 / l00;
+        let rest = m11 - l10 * l10;
+        if rest.is_nan() || rest <= 0.0 {
+            return None;
+        }
+        let l11 = rest.sqrt();
+        let nu = self.candidates[i][c].innovation;
+        let whitened = &self.whitened;
+        let w0 = (nu[0] - dot(&rows[0], &whitened.as_slice()[..2 * k])) / l00;
+        let w1 = (nu[1] - dot(&rows[1], &whitened.as_slice()[..2 * k]) - l10 * w0) / l11;
+        for r in 0..2 {
+            for (q, value) in rows[r].iter().enumerate() {
+                self.factor[(2 * k + r, q)] = *value;
+            }
+        }
+        self.factor[(2 * k, 2 * k)] = l00;
+        self.factor[(2 * k + 1, 2 * k)] = l10;
+        self.factor[(2 * k + 1, 2 * k + 1)] = l11;
+        self.whitened[2 * k] = w0;
+        self.whitened[2 * k + 1] = w1;
+        Some(w0 * w0 + w1 * w1)
     }
 }
 

@@ -9,6 +9,7 @@
 use nalgebra::{DMatrix, DVector, Matrix2};
 
 use super::ekf_state::{EkfError, EkfState};
+use super::frames::transform_point;
 use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::motion_model::MotionModel;
@@ -215,28 +216,28 @@ impl LocalMap {
         });
     }
 
-    /// Applies a direct measurement of the robot's position in the base frame, with
-    /// covariance `noise` (for GPS, already including the base frame's own uncertainty),
-    /// unless its squared Mahalanobis distance exceeds `gate_distance2`. Returns whether it
-    /// was applied.
+    /// Applies a measured position, in the base frame, of the point `antenna_in_robot` on the
+    /// robot (a GPS antenna), with covariance `noise` (for GPS, already including the base
+    /// frame's own uncertainty), unless its squared Mahalanobis distance exceeds
+    /// `gate_distance2`. Returns whether it was applied.
     ///
     /// # Errors
     /// [`EkfError`] when the innovation covariance is not positive definite.
     pub fn observe_position(
         &mut self,
         position_in_base: [f64; 2],
+        antenna_in_robot: [f64; 2],
         noise: &Matrix2<f64>,
         gate_distance2: f64,
     ) -> Result<bool, EkfError> {
         let n = self.state.dim();
-        let pose = self.state.pose();
+        let (predicted, d_pose, _) = transform_point(self.state.pose(), antenna_in_robot);
         let innovation = DVector::from_vec(vec![
-            position_in_base[0] - pose[0],
-            position_in_base[1] - pose[1],
+            position_in_base[0] - predicted[0],
+            position_in_base[1] - predicted[1],
         ]);
         let mut h = DMatrix::zeros(2, n);
-        h[(0, 0)] = 1.0;
-        h[(1, 1)] = 1.0;
+        h.view_mut((0, 0), (2, 3)).copy_from(&d_pose);
         let r = DMatrix::from_column_slice(2, 2, noise.as_slice());
         let s = self.state.innovation_covariance(&h, &r);
         let Some(s_inv) = s.try_inverse() else {

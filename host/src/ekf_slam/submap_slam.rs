@@ -110,24 +110,28 @@ impl<M: MotionModel> SubmapSlam<M> {
         report
     }
 
-    /// Uses a measured robot position in the map frame with covariance `noise` (a GPS fix
-    /// already expressed in the map frame) unless its squared Mahalanobis distance exceeds
-    /// `gate_distance2` (a GPS jump). Returns whether it was used.
+    /// Uses a measured position in the map frame of the point `antenna_in_robot` (a GPS fix
+    /// already expressed in the map frame) with covariance `noise`, unless its squared
+    /// Mahalanobis distance exceeds `gate_distance2` (a GPS jump). Returns whether it was used.
+    ///
+    /// The fix is expressed in the local map's base frame taking the base as known: the
+    /// joined map's base accumulates the odometry drift of every local map, and folding its
+    /// covariance into the fix would make GPS count for ever less as the run goes on. The
+    /// price is that the local map's covariance ignores the base's share of the fix's error.
     pub fn observe_position(
         &mut self,
         position_in_map: [f64; 2],
+        antenna_in_robot: [f64; 2],
         noise: &Matrix2<f64>,
         gate_distance2: f64,
     ) -> bool {
-        // Express the fix in the base frame; the base's own uncertainty is added to the noise.
-        let base = self.global.current_base();
-        let base_from_map = invert_pose(base);
-        let (in_base, d_pose, d_point) = transform_point(base_from_map, position_in_map);
-        // Derivative of the base-frame position with respect to the base pose itself.
-        let d_base = d_pose * inverse_jacobian(base);
-        let p_base = self.global.state().pose_covariance();
-        let total = d_point * noise * d_point.transpose() + d_base * p_base * d_base.transpose();
-        match self.local.observe_position(in_base, &total, gate_distance2) {
+        let base_from_map = invert_pose(self.global.current_base());
+        let (in_base, _, d_point) = transform_point(base_from_map, position_in_map);
+        let total = d_point * noise * d_point.transpose();
+        match self
+            .local
+            .observe_position(in_base, antenna_in_robot, &total, gate_distance2)
+        {
             Ok(used) => used,
             Err(_) => {
                 self.stats.failed_updates += 1;
@@ -243,17 +247,4 @@ impl<M: MotionModel> SubmapSlam<M> {
         }
         (self.global, self.stats)
     }
-}
-
-/// Jacobian of `invert_pose` at `pose`.
-fn inverse_jacobian(pose: [f64; 3]) -> Matrix3<f64> {
-    let (sin, cos) = pose[2].sin_cos();
-    let [x, y, _] = pose;
-    #[rustfmt::skip]
-    let jacobian = Matrix3::new(
-        -cos, -sin, sin * x - cos * y,
-        sin, -cos, cos * x + sin * y,
-        0.0, 0.0, -1.0,
-    );
-    jacobian
 }
