@@ -167,6 +167,8 @@ pub struct FilterCounts {
     pub ambiguous: usize,
     /// Landmarks fused across local maps.
     pub fused: usize,
+    /// Revisits confirmed by the history memory.
+    pub recognised_places: usize,
     /// Updates that failed (not positive definite).
     pub failed_updates: usize,
 }
@@ -178,6 +180,7 @@ impl From<SubmapSlamStats> for FilterCounts {
             new_landmarks: stats.observations.new_landmarks,
             ambiguous: stats.observations.ambiguous,
             fused: stats.fused,
+            recognised_places: stats.recognised_places,
             failed_updates: stats.failed_updates,
         }
     }

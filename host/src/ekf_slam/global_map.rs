@@ -76,6 +76,14 @@ impl GlobalMap {
         &self.bases_in_map
     }
 
+    /// Indices of the landmarks first mapped before local map `before` (for place recognition
+    /// against the older part of the map).
+    pub fn landmarks_older_than(&self, before: usize) -> Vec<usize> {
+        (0..self.origin_map.len())
+            .filter(|&i| self.origin_map[i] < before)
+            .collect()
+    }
+
     /// The base frame of the local map being built.
     pub fn current_base(&self) -> [f64; 3] {
         self.state.pose()
@@ -103,7 +111,9 @@ impl GlobalMap {
         }
     }
 
-    /// Joins `local` (built in the current base frame) and fuses the landmarks found in both.
+    /// Joins `local` (built in the current base frame) and fuses the landmarks found in both:
+    /// those the gate and JCBB pair, plus `recognised` pairs `(local landmark, global
+    /// landmark)` from place recognition.
     ///
     /// # Errors
     /// [`EkfError`] when the fusion update fails; the local map is then joined without fusion.
@@ -111,6 +121,7 @@ impl GlobalMap {
         &mut self,
         local: LocalMap,
         options: &AssociationOptions,
+        recognised: &[(usize, usize)],
     ) -> Result<JoinReport, EkfError> {
         let (local_state, local_info) = local.into_parts();
         let base = self.state.pose();
@@ -165,7 +176,18 @@ impl GlobalMap {
             .extend(std::iter::repeat_n(joined_map, count));
         self.bases_in_map.push(self.state.pose());
 
-        let pairs = self.pair(old_count, options);
+        let mut pairs = self.pair(old_count, options);
+        // Pairings a place recognised by the history memory adds, for landmarks the gate in
+        // the drifted global frame could not pair.
+        for &(local, old) in recognised {
+            let new = old_count + local;
+            let free = new < self.info.len()
+                && old < old_count
+                && pairs.iter().all(|&(n, o)| n != new && o != old);
+            if free {
+                pairs.push((new, old));
+            }
+        }
         let revisited = pairs
             .iter()
             .filter(|&&(_, old)| self.origin_map[old] + 1 < joined_map)

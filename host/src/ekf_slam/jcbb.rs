@@ -247,11 +247,12 @@ impl Search<'_> {
                 row[2 * a + 1] = block[(r, 1)];
             }
             for q in 0..2 * k {
-                let mut value = row[q];
-                for p in 0..q {
-                    value -= self.factor[(q, p)] * row[p];
-                }
-                row[q] = value / self.factor[(q, q)];
+                let solved: f64 = row[..q]
+                    .iter()
+                    .enumerate()
+                    .map(|(p, x)| self.factor[(q, p)] * x)
+                    .sum();
+                row[q] = (row[q] - solved) / self.factor[(q, q)];
             }
         }
         let own = self.cross[flat * self.flat_len + flat] + self.noise[i];
@@ -273,8 +274,8 @@ impl Search<'_> {
         let whitened = &self.whitened;
         let w0 = (nu[0] - dot(&rows[0], &whitened.as_slice()[..2 * k])) / l00;
         let w1 = (nu[1] - dot(&rows[1], &whitened.as_slice()[..2 * k]) - l10 * w0) / l11;
-        for r in 0..2 {
-            for (q, value) in rows[r].iter().enumerate() {
+        for (r, row) in rows.iter().enumerate() {
+            for (q, value) in row.iter().enumerate() {
                 self.factor[(2 * k + r, q)] = *value;
             }
         }

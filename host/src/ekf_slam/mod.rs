@@ -7,15 +7,19 @@
 //!   [`ConstantVelocityModel`] (no odometry).
 //! * [`RangeBearingModel`]: range-bearing observations of point landmarks.
 //! * [`jcbb`]: data association by joint compatibility.
+//! * [`HistoryMemory`]: recognising a revisited place from landmark constellations
+//!   ([`Constellation`]), with evidence over consecutive local maps.
 //! * [`LocalMap`] and [`GlobalMap`]: local maps and map joining (Tardós et al. 2002).
 //! * [`SubmapSlam`]: the pipeline.
 
 pub mod ackermann;
 pub mod constant_velocity;
+pub mod constellation;
 pub mod differential_drive;
 pub mod ekf_state;
 pub mod frames;
 pub mod global_map;
+pub mod history_memory;
 pub mod jcbb;
 pub mod landmark_info;
 pub mod local_map;
@@ -26,9 +30,11 @@ pub mod submap_slam;
 
 pub use ackermann::{AckermannGeometry, AckermannInput, AckermannModel};
 pub use constant_velocity::ConstantVelocityModel;
+pub use constellation::{Constellation, ConstellationOptions, PlaceMatch};
 pub use differential_drive::{DifferentialDriveInput, DifferentialDriveModel};
 pub use ekf_state::{EkfError, EkfState};
 pub use global_map::{GlobalMap, JoinReport};
+pub use history_memory::{HistoryMemory, HistoryMemoryOptions, LoopClosure};
 pub use jcbb::{JcbbOptions, jcbb};
 pub use landmark_info::LandmarkInfo;
 pub use local_map::{LocalMap, ObservationReport};

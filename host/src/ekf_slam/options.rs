@@ -1,5 +1,6 @@
 //! Settings of the EKF submapping SLAM, each with a default that works on a car in a park.
 
+use super::history_memory::HistoryMemoryOptions;
 use super::jcbb::JcbbOptions;
 
 /// How observations are paired with landmarks.
@@ -44,10 +45,13 @@ pub struct SubmapSlamOptions {
     pub join_association: AssociationOptions,
     /// Landmarks seen fewer times than this are dropped when their local map closes.
     pub min_observations: u32,
+    /// Place recognition over the older map when a local map closes; `None` relies on the
+    /// join's gate alone.
+    pub history: Option<HistoryMemoryOptions>,
 }
 
 impl Default for SubmapSlamOptions {
-    /// Local maps of 30 landmarks, landmarks kept once seen twice.
+    /// Local maps of 30 landmarks, landmarks kept once seen twice, history memory on.
     fn default() -> Self {
         SubmapSlamOptions {
             max_landmarks_per_local_map: 30,
@@ -57,6 +61,7 @@ impl Default for SubmapSlamOptions {
                 ..AssociationOptions::default()
             },
             min_observations: 2,
+            history: Some(HistoryMemoryOptions::default()),
         }
     }
 }

@@ -15,6 +15,7 @@ use nalgebra::{DVector, Matrix2, Matrix3};
 
 use super::frames::{compose_pose, invert_pose, transform_point};
 use super::global_map::{GlobalMap, JoinReport};
+use super::history_memory::HistoryMemory;
 use super::landmark_info::LandmarkInfo;
 use super::local_map::{LocalMap, ObservationReport};
 use super::motion_model::MotionModel;
@@ -47,6 +48,8 @@ pub struct SubmapSlamStats {
     pub fused: usize,
     /// Joins that fused landmarks first mapped at least two local maps earlier.
     pub loop_closures: usize,
+    /// Revisits the history memory confirmed.
+    pub recognised_places: usize,
     /// Updates skipped because the innovation covariance was not positive definite.
     pub failed_updates: usize,
 }
@@ -59,6 +62,7 @@ pub struct SubmapSlam<M: MotionModel> {
     options: SubmapSlamOptions,
     global: GlobalMap,
     local: LocalMap,
+    history: Option<HistoryMemory>,
     stats: SubmapSlamStats,
 }
 
@@ -74,6 +78,7 @@ impl<M: MotionModel> SubmapSlam<M> {
         SubmapSlam {
             global: GlobalMap::new(start_in_map, Matrix3::zeros()),
             local: LocalMap::new(robot, covariance),
+            history: options.history.map(HistoryMemory::new),
             motion,
             sensor,
             options,
@@ -153,7 +158,11 @@ impl<M: MotionModel> SubmapSlam<M> {
         let robot_covariance = self.local.state().robot_covariance();
         let mut local = self.local.clone();
         local.prune(self.options.min_observations);
-        let report = match self.global.join(local, &self.options.join_association) {
+        let recognised = self.recognise_place(&local);
+        let report = match self
+            .global
+            .join(local, &self.options.join_association, &recognised)
+        {
             Ok(report) => report,
             Err(_) => {
                 self.stats.failed_updates += 1;
@@ -176,6 +185,27 @@ impl<M: MotionModel> SubmapSlam<M> {
         report
     }
 
+    /// Asks the history memory whether `local` (about to be joined) revisits an older part of
+    /// the map; returns the pairs `(local landmark, global landmark)` of a confirmed revisit.
+    fn recognise_place(&mut self, local: &LocalMap) -> Vec<(usize, usize)> {
+        let Some(history) = self.history.as_mut() else {
+            return Vec::new();
+        };
+        let local_map = self.global.bases_in_map().len() - 1;
+        let old = self
+            .global
+            .landmarks_older_than(local_map.saturating_sub(2));
+        let global_in_map = global_landmarks(&self.global);
+        let local_in_map = local_landmarks(&self.global, local);
+        match history.add_local_map(local_map, &local_in_map, &global_in_map, &old) {
+            Some(closure) => {
+                self.stats.recognised_places += 1;
+                closure.pairs
+            }
+            None => Vec::new(),
+        }
+    }
+
     /// The robot pose in the map frame and its covariance.
     pub fn pose_in_map(&self) -> ([f64; 3], Matrix3<f64>) {
         let base = self.global.current_base();
@@ -193,30 +223,8 @@ impl<M: MotionModel> SubmapSlam<M> {
     /// Every landmark: the global map's and the current local map's (the latter transformed
     /// into the map frame, not yet fused).
     pub fn landmarks_in_map(&self) -> Vec<MappedLandmark> {
-        let global = self.global.state();
-        let mut landmarks: Vec<MappedLandmark> = self
-            .global
-            .landmark_info()
-            .iter()
-            .enumerate()
-            .map(|(i, info)| MappedLandmark {
-                position_in_map: global.landmark(i),
-                covariance: global.landmark_covariance(i),
-                info: *info,
-            })
-            .collect();
-        let base = self.global.current_base();
-        let p_base = global.pose_covariance();
-        let local = self.local.state();
-        for (i, info) in self.local.landmark_info().iter().enumerate() {
-            let (position, d_base, d_point) = transform_point(base, local.landmark(i));
-            landmarks.push(MappedLandmark {
-                position_in_map: position,
-                covariance: d_base * p_base * d_base.transpose()
-                    + d_point * local.landmark_covariance(i) * d_point.transpose(),
-                info: *info,
-            });
-        }
+        let mut landmarks = global_landmarks(&self.global);
+        landmarks.extend(local_landmarks(&self.global, &self.local));
         landmarks
     }
 
@@ -247,4 +255,40 @@ impl<M: MotionModel> SubmapSlam<M> {
         }
         (self.global, self.stats)
     }
+}
+
+/// The global map's landmarks.
+fn global_landmarks(global: &GlobalMap) -> Vec<MappedLandmark> {
+    let state = global.state();
+    global
+        .landmark_info()
+        .iter()
+        .enumerate()
+        .map(|(i, info)| MappedLandmark {
+            position_in_map: state.landmark(i),
+            covariance: state.landmark_covariance(i),
+            info: *info,
+        })
+        .collect()
+}
+
+/// The landmarks of `local`, built in the global map's current base, in the map frame.
+fn local_landmarks(global: &GlobalMap, local: &LocalMap) -> Vec<MappedLandmark> {
+    let base = global.current_base();
+    let p_base = global.state().pose_covariance();
+    let state = local.state();
+    local
+        .landmark_info()
+        .iter()
+        .enumerate()
+        .map(|(i, info)| {
+            let (position, d_base, d_point) = transform_point(base, state.landmark(i));
+            MappedLandmark {
+                position_in_map: position,
+                covariance: d_base * p_base * d_base.transpose()
+                    + d_point * state.landmark_covariance(i) * d_point.transpose(),
+                info: *info,
+            }
+        })
+        .collect()
 }
