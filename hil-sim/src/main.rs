@@ -179,6 +179,10 @@ enum Command {
         /// Use only the first S seconds of the run.
         #[arg(long)]
         duration_s: Option<f64>,
+        /// `LAT,LON` (degrees) of the origin of gps.dat's metric frame, which the dataset does
+        /// not record; with GPS fused, OUT/map.geojson and OUT/map.kml are written in WGS84.
+        #[arg(long, allow_hyphen_values = true, value_parser = parse_datum)]
+        datum: Option<host::georef::LocalFrame>,
         /// Standard deviation of a tree's range, m.
         #[arg(long, default_value_t = 1.0)]
         sigma_range_m: f64,
@@ -317,6 +321,22 @@ fn replay_carmen(
         options.out.display()
     );
     Ok(())
+}
+
+/// Parses `LAT,LON` in degrees into a local frame at sea level.
+fn parse_datum(text: &str) -> Result<host::georef::LocalFrame, String> {
+    let (lat, lon) = text
+        .split_once(',')
+        .ok_or_else(|| format!("{text:?}: expected LAT,LON in degrees"))?;
+    let lat_deg: f64 = lat
+        .trim()
+        .parse()
+        .map_err(|e| format!("latitude {lat:?}: {e}"))?;
+    let lon_deg: f64 = lon
+        .trim()
+        .parse()
+        .map_err(|e| format!("longitude {lon:?}: {e}"))?;
+    host::georef::LocalFrame::new(lat_deg, lon_deg, 0.0).map_err(|e| e.to_string())
 }
 
 fn nees(options: hil_sim::nees::NeesOptions) -> Result<(), Box<dyn std::error::Error>> {
@@ -492,6 +512,7 @@ fn main() -> ExitCode {
             no_calibration,
             max_range_m,
             duration_s,
+            datum,
             sigma_range_m,
             sigma_bearing_deg,
             sigma_speed_mps,
@@ -510,6 +531,7 @@ fn main() -> ExitCode {
             options.motion.calibrate = !no_calibration;
             options.max_range_m = max_range_m;
             options.duration_s = duration_s;
+            options.datum = datum;
             options.sensor.sigma_range_m = sigma_range_m;
             options.sensor.sigma_bearing_rad = sigma_bearing_deg.to_radians();
             options.sensor.sensor_in_robot[0] = laser_ahead_m;

@@ -29,7 +29,10 @@ use host::ekf_slam::{
     AckermannGeometry, AckermannInput, AckermannModel, LandmarkObservation, RangeBearingModel,
     SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
 };
-use host::georef::{AlignmentPair, RigidAlignment2d, RigidAlignmentOptions};
+use host::georef::{
+    AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
+    write_geojson, write_kml,
+};
 use nalgebra::Matrix2;
 use serde::Serialize;
 
@@ -65,6 +68,10 @@ pub struct VictoriaSlamOptions {
     pub gps_gate_distance2: f64,
     /// Trees further than this are not used, metres.
     pub max_range_m: f64,
+    /// Where the origin of `gps.dat`'s metric frame lies on the Earth (the file carries no
+    /// datum); with GPS fused, the map and trajectory are also written in WGS84 as
+    /// `map.geojson` and `map.kml`.
+    pub datum: Option<LocalFrame>,
     /// Use only the events of the first this many seconds (all when `None`).
     pub duration_s: Option<f64>,
     /// The car model.
@@ -87,6 +94,7 @@ impl VictoriaSlamOptions {
             gps_gate_distance2: 25.0,
             max_range_m: 40.0,
             duration_s: None,
+            datum: None,
             motion: AckermannModel {
                 sigma_speed_mps: 0.5,
                 sigma_steer_rad: 5f64.to_radians(),
@@ -112,12 +120,19 @@ pub struct StepTimeClass {
     pub landmarks_from: usize,
     /// …to (exclusive).
     pub landmarks_to: usize,
-    /// Scans in the class.
+    /// Scan steps in the class that closed no local map.
     pub steps: usize,
-    /// Mean time of a scan step (prediction to its time, update, any join), microseconds.
+    /// Mean time of a scan step that closed no local map (prediction to its time, gate,
+    /// JCBB, update, new landmarks), microseconds.
     pub mean_us: f64,
-    /// Longest scan step, microseconds.
+    /// Longest such step, microseconds.
     pub max_us: f64,
+    /// Scan steps that also closed the local map and joined it.
+    pub joins: usize,
+    /// Mean time of those, microseconds.
+    pub join_mean_us: f64,
+    /// Longest of those, microseconds.
+    pub join_max_us: f64,
 }
 
 /// `summary.json`.
@@ -200,6 +215,9 @@ pub enum VictoriaSlamError {
         /// What failed.
         source: io::Error,
     },
+    /// The WGS84 exports failed.
+    #[error("writing the WGS84 exports: {0}")]
+    GeoRef(#[from] GeoRefError),
     /// The run holds no scan.
     #[error("{0} holds no tree scan")]
     Empty(PathBuf),
@@ -243,7 +261,7 @@ struct FilterRun {
     steps: usize,
     gps_fused: usize,
     gps_rejected: usize,
-    step_times: Vec<(usize, f64)>,
+    step_times: Vec<(usize, bool, f64)>,
 }
 
 /// Merges the streams by time: at equal times inputs first, then scans, then fixes.
@@ -316,8 +334,10 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
                     })
                     .collect();
                 let landmarks = slam.global_landmark_count();
+                let joins = slam.stats().joins;
                 slam.observe(&observations);
-                step_times.push((landmarks, step_started.elapsed().as_secs_f64()));
+                let joined = slam.stats().joins != joins;
+                step_times.push((landmarks, joined, step_started.elapsed().as_secs_f64()));
                 trajectory.push(StampedPose {
                     t_s,
                     pose: laser_pose(&slam, &options.sensor),
@@ -448,23 +468,38 @@ fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) ->
 }
 
 /// Step times grouped by map size.
-fn step_time_classes(step_times: &[(usize, f64)]) -> Vec<StepTimeClass> {
+fn step_time_classes(step_times: &[(usize, bool, f64)]) -> Vec<StepTimeClass> {
     let largest = step_times.iter().map(|s| s.0).max().unwrap_or(0);
+    let stats = |times: &[f64]| {
+        let mean = times.iter().sum::<f64>() / times.len().max(1) as f64;
+        (mean, times.iter().copied().fold(0.0, f64::max))
+    };
     (0..=largest / SIZE_CLASS_LANDMARKS)
         .filter_map(|class| {
             let from = class * SIZE_CLASS_LANDMARKS;
             let to = from + SIZE_CLASS_LANDMARKS;
-            let times: Vec<f64> = step_times
-                .iter()
-                .filter(|s| s.0 >= from && s.0 < to)
-                .map(|s| s.1 * 1e6)
-                .collect();
-            (!times.is_empty()).then(|| StepTimeClass {
+            let in_class = |joined: bool| -> Vec<f64> {
+                step_times
+                    .iter()
+                    .filter(|s| s.0 >= from && s.0 < to && s.1 == joined)
+                    .map(|s| s.2 * 1e6)
+                    .collect()
+            };
+            let (steps, joins) = (in_class(false), in_class(true));
+            if steps.is_empty() && joins.is_empty() {
+                return None;
+            }
+            let (mean_us, max_us) = stats(&steps);
+            let (join_mean_us, join_max_us) = stats(&joins);
+            Some(StepTimeClass {
                 landmarks_from: from,
                 landmarks_to: to,
-                steps: times.len(),
-                mean_us: times.iter().sum::<f64>() / times.len() as f64,
-                max_us: times.iter().copied().fold(0.0, f64::max),
+                steps: steps.len(),
+                mean_us,
+                max_us,
+                joins: joins.len(),
+                join_mean_us,
+                join_max_us,
             })
         })
         .collect()
@@ -518,6 +553,30 @@ fn write_outputs(
         .map_err(write_error(&path))?;
     }
     out.flush().map_err(write_error(&path))?;
+
+    if let (Some(frame), true) = (&options.datum, options.use_gps) {
+        let trajectory_in_enu: Vec<[f64; 2]> = run
+            .trajectory
+            .iter()
+            .map(|p| [p.pose[0], p.pose[1]])
+            .collect();
+        let landmarks: Vec<LandmarkInEnu> = global
+            .landmark_info()
+            .iter()
+            .enumerate()
+            .map(|(i, info)| LandmarkInEnu {
+                id: Some(i as u64),
+                position_in_enu_m: state.landmark(i),
+                diameter_m: info.diameter_m,
+            })
+            .collect();
+        let path = options.out.join("map.geojson");
+        let file = fs::File::create(&path).map_err(write_error(&path))?;
+        write_geojson(BufWriter::new(file), frame, &trajectory_in_enu, &landmarks)?;
+        let path = options.out.join("map.kml");
+        let file = fs::File::create(&path).map_err(write_error(&path))?;
+        write_kml(BufWriter::new(file), frame, &trajectory_in_enu, &landmarks)?;
+    }
 
     let (gps_compared, rms_to_gps_m, median_to_gps_m) =
         error_to_gps(&run.trajectory, &park.gps, !options.use_gps);
