@@ -27,6 +27,19 @@ fn victoria(
     Some((summary, out))
 }
 
+/// The number of lines of `out/trajectory.tsv` and the fields of its first.
+fn first_pose(out: &std::path::Path) -> (usize, Vec<f64>) {
+    let trajectory = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory written");
+    let first = trajectory
+        .lines()
+        .next()
+        .expect("a line")
+        .split('\t')
+        .map(|f| f.parse().expect("a number"))
+        .collect();
+    (trajectory.lines().count(), first)
+}
+
 #[test]
 fn victoria_park_without_gps_follows_the_gps_track() {
     let Some((summary, out)) = victoria("victoria_without_gps", false, 300.0) else {
@@ -42,15 +55,8 @@ fn victoria_park_without_gps_follows_the_gps_track() {
         summary.rms_to_gps_m
     );
     assert_eq!(summary.filter.failed_updates, 0);
-    let trajectory = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory written");
-    assert_eq!(trajectory.lines().count(), summary.scans);
-    let fields: Vec<f64> = trajectory
-        .lines()
-        .next()
-        .expect("a line")
-        .split('\t')
-        .map(|f| f.parse().expect("a number"))
-        .collect();
+    let (lines, fields) = first_pose(&out);
+    assert_eq!(lines, summary.scans);
     assert_eq!(fields.len(), 4, "t_s x_m y_m theta_rad");
     let landmarks = fs::read_to_string(out.join("landmarks.tsv")).expect("landmarks written");
     assert_eq!(
@@ -82,14 +88,7 @@ fn victoria_park_with_gps_stays_on_it() {
     assert!(summary.gps_fused > 500, "{summary:?}");
     assert!(summary.rms_to_gps_m < 1.5, "RMS {} m", summary.rms_to_gps_m);
     // With GPS the trajectory is in the frame of gps.dat: it starts near its first fix.
-    let trajectory = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory written");
-    let first: Vec<f64> = trajectory
-        .lines()
-        .next()
-        .expect("a line")
-        .split('\t')
-        .map(|f| f.parse().expect("a number"))
-        .collect();
+    let (_, first) = first_pose(&out);
     assert!(
         (first[1] + 2.0).hypot(first[2] + 1.9) < 5.0,
         "first pose {first:?}"
@@ -110,7 +109,10 @@ fn submap_filter_is_consistent_in_the_park() {
     assert!(report.submap_fraction_within > 0.85, "{report:?}");
     // The single global EKF is measured on the same runs; it drifts out of consistency as its
     // map grows, which is what the comparison shows, so only its range is checked.
-    assert!((0.0..=1.0).contains(&report.full_ekf_fraction_within), "{report:?}");
+    assert!(
+        (0.0..=1.0).contains(&report.full_ekf_fraction_within),
+        "{report:?}"
+    );
     assert!(report.submap_final_error_m < 1.0, "{report:?}");
 }
 

@@ -14,7 +14,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::{compose_pose, transform_point};
-use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
+use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
@@ -235,18 +235,10 @@ impl GlobalMap {
                         matrix: -DMatrix::identity(2, 2),
                     },
                 ];
-                let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
-                let Some(s_inv) = s.try_inverse() else {
-                    continue;
-                };
-                let distance2 = (innovation.transpose() * s_inv * innovation)[0];
-                if distance2 < gate {
-                    list.push(PairingCandidate {
-                        target: old,
-                        innovation,
-                        jacobian,
-                        distance2,
-                    });
+                let candidate =
+                    PairingCandidate::new(old, innovation, jacobian, covariance, &noise);
+                if let Some(candidate) = candidate.filter(|c| c.distance2 < gate) {
+                    list.push(candidate);
                 }
             }
             list.sort_by(|a, b| a.distance2.total_cmp(&b.distance2));

@@ -57,6 +57,27 @@ impl Default for JcbbOptions {
     }
 }
 
+impl PairingCandidate {
+    /// The pairing of `target` with this `innovation` and `jacobian`, its distance taken with
+    /// the state `covariance` and measurement `noise`; `None` when `H P Hᵀ + R` is singular.
+    pub fn new(
+        target: usize,
+        innovation: Vector2<f64>,
+        jacobian: Vec<JacobianBlock>,
+        covariance: &DMatrix<f64>,
+        noise: &Matrix2<f64>,
+    ) -> Option<PairingCandidate> {
+        let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
+        let distance2 = (innovation.transpose() * s.try_inverse()? * innovation)[0];
+        Some(PairingCandidate {
+            target,
+            innovation,
+            jacobian,
+            distance2,
+        })
+    }
+}
+
 /// `H_a P H_bᵀ` for two sparse Jacobians.
 pub fn cross_covariance(
     covariance: &DMatrix<f64>,

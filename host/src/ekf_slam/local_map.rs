@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, DVector, Matrix2};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::transform_point;
-use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
+use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::motion_model::MotionModel;
 use super::options::AssociationOptions;
@@ -108,25 +108,20 @@ impl LocalMap {
                         matrix: DMatrix::from_column_slice(2, 2, predicted.d_landmark.as_slice()),
                     },
                 ];
-                let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
                 let innovation = RangeBearingModel::innovation(observation, &predicted);
-                let Some(s_inv) = s.try_inverse() else {
+                let Some(candidate) =
+                    PairingCandidate::new(j, innovation, jacobian, covariance, &noise)
+                else {
                     continue;
                 };
-                let distance2 = (innovation.transpose() * s_inv * innovation)[0];
-                nearest_distance2[i] = nearest_distance2[i].min(distance2);
+                nearest_distance2[i] = nearest_distance2[i].min(candidate.distance2);
                 let diameter_ok = info.diameter_compatible(
                     observation.diameter_m,
                     options.diameter_tolerance_m,
                     options.diameter_tolerance_fraction,
                 );
-                if distance2 < gate && diameter_ok {
-                    list.push(PairingCandidate {
-                        target: j,
-                        innovation,
-                        jacobian,
-                        distance2,
-                    });
+                if candidate.distance2 < gate && diameter_ok {
+                    list.push(candidate);
                 }
             }
             list.sort_by(|a, b| a.distance2.total_cmp(&b.distance2));
