@@ -347,6 +347,17 @@ mod tests {
 
     /// Largest distance between where two corrections put the landmarks, and their angle
     /// difference.
+    /// Asserts that `correction` is within 0.3 m (at every local landmark) and 1° of `truth`.
+    fn assert_correction_close(correction: [f64; 3], truth: [f64; 3], local: &[MappedLandmark]) {
+        let (distance_m, angle_rad) = correction_error(correction, truth, local);
+        assert!(distance_m < 0.3, "{distance_m} m");
+        assert!(
+            angle_rad < 1f64.to_radians(),
+            "{} deg",
+            angle_rad.to_degrees()
+        );
+    }
+
     fn correction_error(
         found: [f64; 3],
         truth: [f64; 3],
@@ -429,14 +440,7 @@ mod tests {
             .add_local_map(4, &local_b, &global, &old)
             .expect("a loop after two consistent local maps");
         assert_eq!((closure.local_map, closure.evidence), (4, 2));
-        let (distance_m, angle_rad) =
-            correction_error(closure.correction, invert_pose(drift_b), &local_b);
-        assert!(distance_m < 0.3, "{distance_m} m");
-        assert!(
-            angle_rad < 1f64.to_radians(),
-            "{} deg",
-            angle_rad.to_degrees()
-        );
+        assert_correction_close(closure.correction, invert_pose(drift_b), &local_b);
         assert_eq!(correct_pairs(&closure.pairs, &ids_b), closure.inliers);
         assert_eq!(closure.inliers, closure.pairs.len());
         // The evidence is spent: the next local map alone does not close again.
@@ -499,14 +503,7 @@ mod tests {
         let closure = memory
             .add_local_map(19, &local_b, &global, &old)
             .expect("the revisit is confirmed");
-        let (distance_m, angle_rad) =
-            correction_error(closure.correction, invert_pose(drift), &local_b);
-        assert!(distance_m < 0.3, "{distance_m} m");
-        assert!(
-            angle_rad < 1f64.to_radians(),
-            "{} deg",
-            angle_rad.to_degrees()
-        );
+        assert_correction_close(closure.correction, invert_pose(drift), &local_b);
         assert_eq!(correct_pairs(&closure.pairs, &ids_b), closure.inliers);
     }
 

@@ -135,18 +135,7 @@ fn intersection(a: &LineSegment, b: &LineSegment) -> Option<[f64; 2]> {
 mod tests {
     use super::*;
     use crate::landmarks::line_split::{LineSplitOptions, split_into_lines};
-
-    fn straight(from: [f64; 2], to: [f64; 2], n: usize) -> Vec<[f64; 2]> {
-        (0..n)
-            .map(|i| {
-                let f = i as f64 / (n - 1) as f64;
-                [
-                    from[0] + f * (to[0] - from[0]),
-                    from[1] + f * (to[1] - from[1]),
-                ]
-            })
-            .collect()
-    }
+    use crate::landmarks::test_scene::straight;
 
     fn corners_of(points: &[[f64; 2]]) -> Vec<Corner> {
         let lines = split_into_lines(points, &LineSplitOptions::default());

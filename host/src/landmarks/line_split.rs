@@ -206,18 +206,7 @@ fn line_distance_m(p: &[f64; 2], centroid: [f64; 2], normal: [f64; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn straight(from: [f64; 2], to: [f64; 2], n: usize) -> Vec<[f64; 2]> {
-        (0..n)
-            .map(|i| {
-                let f = i as f64 / (n - 1) as f64;
-                [
-                    from[0] + f * (to[0] - from[0]),
-                    from[1] + f * (to[1] - from[1]),
-                ]
-            })
-            .collect()
-    }
+    use crate::landmarks::test_scene::straight;
 
     #[test]
     fn test_straight_run_is_one_line() {

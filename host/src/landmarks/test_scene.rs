@@ -109,3 +109,16 @@ impl Scene {
         RangeScan::new(ranges_m, first_angle_rad, angle_step_rad, max_range_m)
     }
 }
+
+/// `n` evenly spaced points from `from` to `to` (both included), metres.
+pub(crate) fn straight(from: [f64; 2], to: [f64; 2], n: usize) -> Vec<[f64; 2]> {
+    (0..n)
+        .map(|i| {
+            let f = i as f64 / (n - 1) as f64;
+            [
+                from[0] + f * (to[0] - from[0]),
+                from[1] + f * (to[1] - from[1]),
+            ]
+        })
+        .collect()
+}
