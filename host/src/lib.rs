@@ -8,6 +8,7 @@
 //!   kernels for loop closures.
 //! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
 
+pub mod daemon;
 pub mod ekf_slam;
 pub mod evaluation;
 pub mod georef;

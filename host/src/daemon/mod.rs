@@ -1,0 +1,11 @@
+//! The robot-host daemon: the board link read on its own thread, the SLAM pipelines on theirs,
+//! the live state the web view and the goal API read, and the recording.
+//!
+//! The algorithms live in the rest of the crate and know nothing of threads, HTTP or files;
+//! this module wires them together.
+
+pub mod state;
+
+pub use state::{
+    GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
+};

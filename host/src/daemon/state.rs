@@ -1,0 +1,182 @@
+//! What the daemon knows right now: the pose, the maps, the counters. Written by the reader
+//! and pipeline threads, read by the web view, the goal API and the live WebSocket.
+
+use std::sync::{Arc, RwLock};
+
+use serde::{Deserialize, Serialize};
+
+/// The live state behind a lock, shared between the daemon's threads.
+pub type SharedState = Arc<RwLock<LiveState>>;
+
+/// The robot's current pose estimate, in the map frame and, once the map is geo-referenced,
+/// in WGS84.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseView {
+    /// Position in the map frame, metres.
+    pub x_m: f64,
+    /// Position in the map frame, metres.
+    pub y_m: f64,
+    /// Heading in the map frame, radians.
+    pub theta_rad: f64,
+    /// Latitude, degrees (WGS84), when the map is geo-referenced.
+    pub lat_deg: Option<f64>,
+    /// Longitude, degrees (WGS84), when the map is geo-referenced.
+    pub lon_deg: Option<f64>,
+    /// Covariance of (x, y) in the map frame, m²: `[xx, xy, yy]`.
+    pub position_cov_m2: [f64; 3],
+    /// Host time of the estimate, seconds.
+    pub time_s: f64,
+}
+
+/// The link and sensor counters shown live.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct LinkCounters {
+    /// Frames decoded.
+    pub frames: u64,
+    /// Frames lost: gaps in the board's sequence numbers.
+    pub frames_lost: u64,
+    /// Frames whose CRC failed.
+    pub crc_errors: u64,
+    /// Scan telegrams received (one frame each).
+    pub telegrams: u64,
+    /// Telegrams the board reported as failing their CRC on the laser line.
+    pub telegram_crc_errors: u64,
+    /// GPS fixes received.
+    pub gps_fixes: u64,
+    /// The last fix's quality: 0 none, 1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float.
+    pub gps_fix_quality: u8,
+    /// Satellites used in the last fix.
+    pub gps_satellites: u8,
+    /// Times the serial port was reopened.
+    pub reconnects: u64,
+    /// Whether the board clock is synchronised to host time.
+    pub clock_synchronised: bool,
+}
+
+/// A landmark of the built map, for display.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkView {
+    /// Position in the map frame, metres.
+    pub x_m: f64,
+    /// Position in the map frame, metres.
+    pub y_m: f64,
+    /// Latitude and longitude, degrees (WGS84), when geo-referenced.
+    pub lat_lon_deg: Option<[f64; 2]>,
+}
+
+/// The current occupancy grid as a PNG, with where it lies in the map frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct GridView {
+    /// The PNG bytes (8-bit grey: 0 occupied, 255 free, 205 unknown).
+    pub png: Vec<u8>,
+    /// Cell size, metres.
+    pub resolution_m: f64,
+    /// Map-frame position of the lower-left corner of the lower-left cell, metres.
+    pub origin_m: [f64; 2],
+    /// Width and height in cells.
+    pub size_cells: [u32; 2],
+}
+
+/// Everything the daemon shows.
+#[derive(Debug, Clone, Default)]
+pub struct LiveState {
+    /// The current pose.
+    pub pose: PoseView,
+    /// The trajectory so far in the map frame, `[x_m, y_m]`, thinned for display.
+    pub trajectory_m: Vec<[f64; 2]>,
+    /// The trajectory so far in WGS84, `[lon_deg, lat_deg]`, when geo-referenced.
+    pub trajectory_wgs84: Vec<[f64; 2]>,
+    /// The landmark map (outdoor method).
+    pub landmarks: Vec<LandmarkView>,
+    /// The occupancy grid (indoor method), when one is built.
+    pub grid: Option<GridView>,
+    /// Link and sensor counters.
+    pub counters: LinkCounters,
+    /// The goal last set, in the map frame.
+    pub goal: Option<GoalInMap>,
+}
+
+impl LiveState {
+    /// A new, empty state behind a lock.
+    pub fn shared() -> SharedState {
+        Arc::new(RwLock::new(LiveState::default()))
+    }
+}
+
+/// A goal as the user asks for it: a pixel of the geo-referenced image or a WGS84 position.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum GoalRequest {
+    /// A pixel of the image (column, row from the top-left outer corner, may be fractional).
+    Pixel {
+        /// Column, pixels.
+        pixel_x: f64,
+        /// Row, pixels.
+        pixel_y: f64,
+    },
+    /// A WGS84 position.
+    Geodetic {
+        /// Latitude, degrees.
+        lat_deg: f64,
+        /// Longitude, degrees.
+        lon_deg: f64,
+    },
+}
+
+/// A goal resolved into the map frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GoalInMap {
+    /// Goal in the map frame, metres.
+    pub x_m: f64,
+    /// Goal in the map frame, metres.
+    pub y_m: f64,
+    /// The goal in WGS84, degrees.
+    pub lat_deg: f64,
+    /// The goal in WGS84, degrees.
+    pub lon_deg: f64,
+    /// The goal as a pixel of the image, when there is one.
+    pub pixel: Option<[f64; 2]>,
+}
+
+/// Why a goal was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GoalError {
+    /// The pixel lies outside the image.
+    #[error("pixel ({x:.1}, {y:.1}) is outside the {width}×{height} image")]
+    OutsideImage {
+        /// Column asked for.
+        x: f64,
+        /// Row asked for.
+        y: f64,
+        /// Image width, pixels.
+        width: u32,
+        /// Image height, pixels.
+        height: u32,
+    },
+    /// The position lies outside the built map (farther than the margin from any part of it).
+    #[error("({lat_deg:.7}, {lon_deg:.7}) is outside the map: {reason}")]
+    OutsideMap {
+        /// Latitude asked for, degrees.
+        lat_deg: f64,
+        /// Longitude asked for, degrees.
+        lon_deg: f64,
+        /// Why, in words.
+        reason: String,
+    },
+    /// A value that is not a number, or a latitude/longitude out of range.
+    #[error("invalid goal: {0}")]
+    Invalid(String),
+    /// There is no geo-referencing yet (no image, or the map is not aligned to GPS).
+    #[error("cannot place a goal yet: {0}")]
+    NotGeoreferenced(String),
+}
+
+/// Turns a goal request into the map frame: pixel → geodetic → map.
+pub trait GoalResolver: Send + Sync {
+    /// Resolves `request`, or says why it cannot.
+    ///
+    /// # Errors
+    /// A pixel outside the image, a position outside the map, an invalid number, or no
+    /// geo-referencing yet.
+    fn resolve(&self, request: &GoalRequest) -> Result<GoalInMap, GoalError>;
+}
