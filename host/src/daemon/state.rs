@@ -94,6 +94,22 @@ pub struct LiveState {
     pub counters: LinkCounters,
     /// The goal last set, in the map frame.
     pub goal: Option<GoalInMap>,
+    /// The geo-referenced image under the map, when there is one.
+    pub image: Option<ImageView>,
+    /// Map frame → image pixels, once the map is geo-referenced: `[a, b, c, d, e, f]` with
+    /// `col = a + b·x_m + c·y_m`, `row = d + e·x_m + f·y_m` (fitted over the map's extent).
+    pub pixel_from_map: Option<[f64; 6]>,
+}
+
+/// The geo-referenced image the web view draws under the map.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImageView {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// The image's CRS, as its reader names it (e.g. `EPSG:32632`).
+    pub crs: String,
 }
 
 impl LiveState {
