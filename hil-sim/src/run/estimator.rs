@@ -7,9 +7,9 @@
 //! robot's pose at its first scan. Without loop closure this drifts; the full SLAM methods
 //! replace it.
 
-use firmware::sick::{MeasuringMode, RangeDecoder};
+use host::link::LaserScan;
 use host::scan_match::{FastMatcher, Pose2, RasterOptions, Scan, ScanMatcher, SearchTable};
-use protocol::{GpsFixMsg, ScanMsg};
+use protocol::{GpsFixMsg, MeasuringMode, ScanMsg};
 
 /// A new keyframe after this much travel, m.
 pub const KEYFRAME_DISTANCE_M: f64 = 0.3;
@@ -93,20 +93,7 @@ fn pose_array(pose: Pose2) -> [f64; 3] {
     [pose.x_m, pose.y_m, pose.theta_rad]
 }
 
-/// The scan's beam end points; the sensor's 0°–180° frame has 90° straight ahead.
+/// The scan's beam end points.
 fn to_scan(msg: &ScanMsg) -> Scan {
-    let decoder = RangeDecoder::new(MeasuringMode::DEFAULT, msg.unit)
-        .unwrap_or(RangeDecoder::with_mask(0x1FFF, msg.unit));
-    let ranges_m: Vec<f64> = msg
-        .values
-        .iter()
-        .map(|&word| {
-            decoder
-                .range_mm(word)
-                .map_or(f64::NAN, |mm| f64::from(mm) * 1e-3)
-        })
-        .collect();
-    let start_rad = (f64::from(msg.start_angle_cdeg) * 0.01 - 90.0).to_radians();
-    let step_rad = (f64::from(msg.step_angle_cdeg) * 0.01).to_radians();
-    Scan::from_ranges(&ranges_m, start_rad, step_rad, 80.0)
+    LaserScan::from_msg(msg, MeasuringMode::DEFAULT).to_scan(80.0)
 }

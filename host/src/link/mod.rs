@@ -2,14 +2,17 @@
 //!
 //! * [`clock_sync::ClockSync`]: maps the board's monotonic microseconds to host seconds from
 //!   time-sync round trips.
+//! * [`laser_scan::LaserScan`]: a scan message's range words in metres, in the sensor frame.
 //! * [`reader::LinkReader`]: turns a byte stream from the board into messages and keeps the
 //!   accounting (lost frames, CRC errors, skipped kinds).
 //! * [`time_sync::TimeSync`]: the pings that feed the clock mapping.
 
 pub mod clock_sync;
+pub mod laser_scan;
 pub mod reader;
 pub mod time_sync;
 
 pub use clock_sync::ClockSync;
+pub use laser_scan::LaserScan;
 pub use reader::{LinkReader, LinkStats};
 pub use time_sync::TimeSync;

@@ -60,10 +60,10 @@ use protocol::{AngularResolution, ConfigureLaserCmd, LaserState, RangeUnit, Scan
 
 use super::command::{DEFAULT_PASSWORD, LmsBaud, OperatingMode, Request, RequestBytes};
 use super::config::ConfigBlock;
-use super::range::MeasuringMode;
 use super::receiver::Event;
 use super::reply::{MODE_SWITCHED, Reply, code};
 use super::telegram::Telegram;
+use protocol::MeasuringMode;
 
 /// Time limits of the bring-up, in milliseconds.
 pub mod timing {

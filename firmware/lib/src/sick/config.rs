@@ -8,7 +8,7 @@
 use protocol::RangeUnit;
 
 use super::error::{Error, Result};
-use super::range::MeasuringMode;
+use protocol::MeasuringMode;
 
 /// Size of the configuration block on current firmware.
 pub const CONFIG_LEN: usize = 34;

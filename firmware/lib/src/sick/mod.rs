@@ -5,7 +5,7 @@
 //! * [`crc`]: the SICK checksum (§3), incremental ([`SickCrc`]) or over a slice ([`crc16`]).
 //! * [`telegram`]: the zero-copy [`Telegram`] view (§2) and the framing constants.
 //! * [`scan`]: [`ScanRepr`], the measured-value reply `B0h` (§7), and its conversion to the
-//!   host's [`protocol::ScanMsg`]; [`range`]: measuring modes and range-word decoding (§7.3).
+//!   host's [`protocol::ScanMsg`]; range words decode with [`protocol::RangeDecoder`] (§7.3).
 //! * [`command`]: host requests ([`Request`], §6); [`reply`] and [`status_reply`]: the
 //!   sensor's replies ([`Reply`], [`StatusReply`]); [`config`]: the configuration block.
 //! * [`receiver`]: the byte-level [`Receiver`] that validates telegrams, recognises ACK/NAK
@@ -23,7 +23,7 @@ pub mod command;
 pub mod config;
 pub mod crc;
 pub mod error;
-pub mod range;
+
 pub mod receiver;
 pub mod reply;
 pub mod scan;
@@ -41,7 +41,7 @@ pub use command::{LmsBaud, OperatingMode, Request, RequestBytes};
 pub use config::ConfigBlock;
 pub use crc::{SickCrc, crc16};
 pub use error::{Error, Result};
-pub use range::{MeasuringMode, RangeDecoder};
+pub use protocol::{MeasuringMode, RangeDecoder};
 pub use receiver::{Event, Receiver, ReceiverStats};
 pub use reply::Reply;
 pub use scan::ScanRepr;

@@ -221,7 +221,7 @@ fn decode_count_word(word: u16) -> Result<(RangeUnit, Option<u8>, usize)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sick::range::RangeDecoder;
+    use crate::sick::RangeDecoder;
     use crate::sick::telegram::MAX_TELEGRAM_LEN;
     use crate::sick::test_data::real_b0;
 

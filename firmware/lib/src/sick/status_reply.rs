@@ -13,7 +13,7 @@ use protocol::RangeUnit;
 
 use super::command::LmsBaud;
 use super::error::{Error, Result};
-use super::range::MeasuringMode;
+use protocol::MeasuringMode;
 
 mod field {
     pub type Field = core::ops::Range<usize>;

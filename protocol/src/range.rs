@@ -12,7 +12,7 @@
 //! A masked value of `mask - 8` (`…F7h`) or more is a "no return" code (no echo, dazzling,
 //! overflow, …); the distance is then unknown.
 
-use protocol::RangeUnit;
+use crate::RangeUnit;
 
 /// The measuring mode of the sensor: how its range words are coded (configuration byte 5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
