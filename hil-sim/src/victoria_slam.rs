@@ -26,8 +26,8 @@ use std::time::Instant;
 
 use host::ekf_slam::frames::compose_pose;
 use host::ekf_slam::{
-    AckermannGeometry, AckermannInput, AckermannModel, LandmarkObservation, RangeBearingModel,
-    SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
+    AckermannGeometry, AckermannInput, AckermannModel, GpsAnchor, GpsAnchorOptions, GpsOutcome,
+    LandmarkObservation, RangeBearingModel, SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
 };
 use host::georef::{
     AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
@@ -47,9 +47,6 @@ pub const GPS_ALIGNMENT_SPAN_M: f64 = 30.0;
 /// with 0.95 m the first 300 s map 227 trees where 3.78 m maps 152, and the laser's track lies
 /// 1.4 m RMS from the GPS where the axle's lies 4.1 m.
 pub const LASER_AHEAD_M: f64 = 3.78;
-/// After this many consecutive fixes rejected by the gate, the next one is fused whatever
-/// its distance.
-const GPS_REACQUIRE_AFTER: usize = 10;
 /// Width of the map-size classes of the step-time table, landmarks.
 const SIZE_CLASS_LANDMARKS: usize = 50;
 
@@ -305,9 +302,11 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
     let mut step_times = Vec::with_capacity(park.scans.len());
     let mut input = AckermannInput::default();
     let mut last_t_s = events.first().map_or(0.0, |e| e.0);
-    let mut alignment_pairs: Vec<AlignmentPair> = Vec::new();
-    let mut aligned = false;
-    let (mut gps_fused, mut gps_rejected, mut rejected_in_a_row) = (0, 0, 0);
+    let mut anchor = GpsAnchor::new(GpsAnchorOptions {
+        alignment_span_m: GPS_ALIGNMENT_SPAN_M,
+        gate_distance2: options.gps_gate_distance2,
+        ..GpsAnchorOptions::default()
+    });
     let gps_noise = Matrix2::identity() * options.gps_sigma_m.powi(2);
 
     for &(t_s, event) in &events {
@@ -345,39 +344,15 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
             }
             Event::Gps(i) => {
                 let fix = park.gps[i];
-                if aligned {
-                    let antenna_in_robot = [
-                        options.sensor.sensor_in_robot[0],
-                        options.sensor.sensor_in_robot[1],
-                    ];
-                    // A run of rejected fixes means the filter, not the receiver, is off (it
-                    // drifted through an outage): the gate opens until a fix is taken again.
-                    let gate = if rejected_in_a_row >= GPS_REACQUIRE_AFTER {
-                        f64::INFINITY
-                    } else {
-                        options.gps_gate_distance2
-                    };
-                    if slam.observe_position([fix.x_m, fix.y_m], antenna_in_robot, &gps_noise, gate)
-                    {
-                        gps_fused += 1;
-                        rejected_in_a_row = 0;
-                    } else {
-                        gps_rejected += 1;
-                        rejected_in_a_row += 1;
-                    }
-                } else {
-                    let pose = laser_pose(&slam, &options.sensor);
-                    alignment_pairs.push(AlignmentPair {
-                        point_in_map: [pose[0], pose[1]],
-                        point_in_enu: [fix.x_m, fix.y_m],
-                        covariance_in_enu_m2: gps_noise,
-                    });
-                    if let Some(enu_from_map) = try_align(&alignment_pairs) {
-                        slam.transform_map(enu_from_map);
-                        for stamped in &mut trajectory {
-                            stamped.pose = compose_pose(enu_from_map, stamped.pose).0;
-                        }
-                        aligned = true;
+                let antenna_in_robot = [
+                    options.sensor.sensor_in_robot[0],
+                    options.sensor.sensor_in_robot[1],
+                ];
+                let outcome =
+                    anchor.on_fix(&mut slam, [fix.x_m, fix.y_m], &gps_noise, antenna_in_robot);
+                if let GpsOutcome::Aligned(enu_from_map) = outcome {
+                    for stamped in &mut trajectory {
+                        stamped.pose = compose_pose(enu_from_map, stamped.pose).0;
                     }
                 }
             }
@@ -389,8 +364,8 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         slam,
         wall_s,
         steps: events.len(),
-        gps_fused,
-        gps_rejected,
+        gps_fused: anchor.fused,
+        gps_rejected: anchor.rejected,
         step_times,
     }
 }
@@ -398,21 +373,6 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
 /// The laser's pose in the map frame.
 fn laser_pose(slam: &SubmapSlam<AckermannModel>, sensor: &RangeBearingModel) -> [f64; 3] {
     compose_pose(slam.pose_in_map().0, sensor.sensor_in_robot).0
-}
-
-/// `enu_from_map` once the paired fixes span [`GPS_ALIGNMENT_SPAN_M`].
-fn try_align(pairs: &[AlignmentPair]) -> Option<[f64; 3]> {
-    let first = pairs.first()?.point_in_map;
-    let span_m = pairs
-        .iter()
-        .map(|p| (p.point_in_map[0] - first[0]).hypot(p.point_in_map[1] - first[1]))
-        .fold(0.0, f64::max);
-    if span_m < GPS_ALIGNMENT_SPAN_M {
-        return None;
-    }
-    let alignment = RigidAlignment2d::estimate(pairs, &RigidAlignmentOptions::default()).ok()?;
-    let t = alignment.enu_from_map;
-    Some([t.x_m, t.y_m, t.theta_rad])
 }
 
 /// The trajectory's position at `t_s`, interpolated between the poses around it.

@@ -11,6 +11,7 @@
 //!   ([`Constellation`]), with evidence over consecutive local maps.
 //! * [`LocalMap`] and [`GlobalMap`]: local maps and map joining (Tardós et al. 2002).
 //! * [`SubmapSlam`]: the pipeline.
+//! * [`GpsAnchor`]: GPS fixes align the map to the GPS frame, then update the filter.
 
 pub mod ackermann;
 pub mod constant_velocity;
@@ -19,6 +20,7 @@ pub mod differential_drive;
 pub mod ekf_state;
 pub mod frames;
 pub mod global_map;
+pub mod gps_anchor;
 pub mod history_memory;
 pub mod jcbb;
 pub mod landmark_info;
@@ -34,6 +36,7 @@ pub use constellation::{Constellation, ConstellationOptions, PlaceMatch};
 pub use differential_drive::{DifferentialDriveInput, DifferentialDriveModel};
 pub use ekf_state::{EkfError, EkfState};
 pub use global_map::{GlobalMap, JoinReport};
+pub use gps_anchor::{GpsAnchor, GpsAnchorOptions, GpsOutcome};
 pub use history_memory::{HistoryMemory, HistoryMemoryOptions, LoopClosure};
 pub use jcbb::{JcbbOptions, jcbb};
 pub use landmark_info::LandmarkInfo;
