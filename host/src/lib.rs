@@ -6,6 +6,8 @@
 //!   and mapping board time to host time.
 //! * [`pose_graph`]: a 2D pose graph optimised by sparse Levenberg–Marquardt, with robust
 //!   kernels for loop closures.
+//! * [`recording`]: every read from the board and every decoded message to MCAP, for
+//!   Foxglove and for replay.
 //! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
 
 pub mod daemon;
@@ -16,5 +18,6 @@ pub mod grid;
 pub mod landmarks;
 pub mod link;
 pub mod pose_graph;
+pub mod recording;
 pub mod scan_match;
 pub mod slam;

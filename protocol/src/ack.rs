@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 /// What the board did with a command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum AckResult {
     /// Accepted and being carried out.
     Accepted,
@@ -17,6 +18,7 @@ pub enum AckResult {
 /// The answer to one host command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct AckMsg {
     /// Sequence number of the command frame.
     pub command_seq: u16,

@@ -7,6 +7,7 @@ use crate::scan::RangeUnit;
 /// Field of view of the laser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum ScanAngle {
     /// 100° (40°–140° of the sensor frame).
     Deg100,
@@ -27,6 +28,7 @@ impl ScanAngle {
 /// Angular resolution of the laser.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum AngularResolution {
     /// 0.25° (only with the 100° field of view).
     Quarter,
@@ -50,6 +52,7 @@ impl AngularResolution {
 /// Set the laser variant and units; the board runs bring-up again with them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct ConfigureLaserCmd {
     /// Field of view.
     pub angle: ScanAngle,
@@ -74,6 +77,7 @@ impl ConfigureLaserCmd {
 /// Start or stop continuous laser streaming.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct SetStreamingCmd {
     /// `true` to stream, `false` to stop.
     pub enabled: bool,
@@ -82,11 +86,13 @@ pub struct SetStreamingCmd {
 /// Ask the board for a status message now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct RequestStatusCmd;
 
 /// Clock synchronisation ping: the acknowledgement carries the board time at reception.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct TimeSyncPingCmd {
     /// Host time when the ping was sent, µs, echoed in the acknowledgement.
     pub host_time_us: u64,

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 /// Which sentence produced a fix report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum FixSource {
     /// `$--GGA`: fix data with quality, satellites, HDOP and altitude.
     Gga,
@@ -21,6 +22,7 @@ pub enum FixSource {
 /// Fix quality as GGA reports it (RMC/GLL status and mode letters map onto it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum FixQuality {
     /// No fix, or the data is not valid.
     Invalid,
@@ -68,6 +70,7 @@ impl FixQuality {
 /// A calendar date (UTC).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct Date {
     /// Full year, e.g. 2024.
     pub year: u16,
@@ -80,6 +83,7 @@ pub struct Date {
 /// A UTC time of day.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct TimeOfDay {
     /// 0–23.
     pub hour: u8,
@@ -94,6 +98,7 @@ pub struct TimeOfDay {
 /// A horizontal position on WGS84.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct Position {
     /// Latitude, north positive, in 1e-9 degrees.
     pub lat_ndeg: i64,
@@ -116,6 +121,7 @@ impl Position {
 /// Error statistics from `$--GST` (1-sigma, metres as millimetres).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct GstSigmas {
     /// RMS of the pseudorange residuals, mm.
     pub rms_mm: Option<u32>,
@@ -137,6 +143,7 @@ pub struct GstSigmas {
 /// `quality: FixQuality::Invalid`: a no-fix sentence never yields a position.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct GpsFixMsg {
     /// Board time (µs since boot) when the sentence's `$` arrived.
     pub stamp_us: u64,

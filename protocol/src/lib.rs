@@ -23,6 +23,9 @@
 //!
 //! A frame is at most [`MAX_FRAME_LEN`] bytes raw and [`MAX_WIRE_LEN`] bytes on the wire
 //! (delimiter included), enough for the largest SICK LMS2xx scan (401 range words).
+//!
+//! With the `schemars` feature every message type implements `schemars::JsonSchema`, so the
+//! host can describe the JSON form of each message (the channels of its MCAP recordings).
 
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]

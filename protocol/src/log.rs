@@ -8,6 +8,7 @@ pub const MAX_LOG_TEXT_LEN: usize = 64;
 /// Severity of a log event.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum LogLevel {
     /// Detail for debugging.
     Debug,
@@ -22,11 +23,13 @@ pub enum LogLevel {
 /// One log event.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct LogMsg {
     /// Board time (µs since boot).
     pub stamp_us: u64,
     /// Severity.
     pub level: LogLevel,
     /// The text, cut at [`MAX_LOG_TEXT_LEN`] bytes.
+    #[cfg_attr(feature = "schemars", schemars(with = "String"))]
     pub text: heapless::String<MAX_LOG_TEXT_LEN>,
 }

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 /// The host pairs it with the fix whose time names that second.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct PpsMsg {
     /// Board time (µs since boot) of the edge, taken in the pin's interrupt.
     pub edge_us: u64,

@@ -8,6 +8,7 @@ pub const MAX_SCAN_VALUES: usize = 401;
 /// The unit of the distance bits of a range word.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum RangeUnit {
     /// Centimetres (80 m modes).
     Cm,
@@ -22,6 +23,7 @@ pub enum RangeUnit {
 /// host knows from its configuration.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct ScanMsg {
     /// Board time (µs since boot) when the telegram's first byte arrived.
     pub stamp_us: u64,
@@ -37,6 +39,7 @@ pub struct ScanMsg {
     /// The count word of the telegram as sent.
     pub count_word: u16,
     /// The raw 16-bit range words in ascending angle order.
+    #[cfg_attr(feature = "schemars", schemars(with = "Vec<u16>"))]
     pub values: heapless::Vec<u16, MAX_SCAN_VALUES>,
     /// The telegram's status byte.
     pub status: u8,

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 /// Counters for one serial link. All counts are since boot and wrap at 2³².
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct LinkCounters {
     /// Bytes received.
     pub bytes: u32,
@@ -26,6 +27,7 @@ pub struct LinkCounters {
 /// Where the laser bring-up stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum LaserState {
     /// Looking for the baud rate the sensor talks at.
     DetectingBaud,
@@ -44,6 +46,7 @@ pub enum LaserState {
 /// What the GPS receiver is doing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub enum GpsState {
     /// No valid sentence received recently.
     Silent,
@@ -56,6 +59,7 @@ pub enum GpsState {
 /// A status report, sent every second and on request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct StatusMsg {
     /// Board time (µs since boot).
     pub uptime_us: u64,

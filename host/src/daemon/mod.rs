@@ -1,11 +1,14 @@
 //! The robot-host daemon: the board link read on its own thread, the SLAM pipelines on theirs,
-//! the live state the web view and the goal API read, and the recording.
+//! the live state the web view and the goal API read, the live view in Foxglove
+//! ([`foxglove_live`]) and the recording ([`crate::recording`]).
 //!
 //! The algorithms live in the rest of the crate and know nothing of threads, HTTP or files;
 //! this module wires them together.
 
+pub mod foxglove_live;
 pub mod state;
 
+pub use foxglove_live::{LiveServer, LiveServerError, start_live_server};
 pub use state::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };

@@ -29,7 +29,7 @@ pub struct PoseView {
 }
 
 /// The link and sensor counters shown live.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct LinkCounters {
     /// Frames decoded.
     pub frames: u64,

@@ -1,0 +1,25 @@
+//! Recording a run to MCAP, reading it back.
+//!
+//! Every read from the serial port is recorded byte for byte (so that replay feeds the same
+//! bytes to the link reader and reproduces the run), with the decoded messages on one JSON
+//! channel per kind and the host's pose as Foxglove's well-known messages, so that a run
+//! opens in Foxglove as it is. The file survives a kill of the daemon up to its last flushed
+//! chunk.
+//!
+//! * [`Recorder`]: writes a recording as the run goes.
+//! * [`read_recording`]: reads one back, cut short or not.
+//! * [`topics`]: the channels the host writes besides the board's ([`board_topic`]).
+
+mod board_message;
+mod durable_file;
+mod error;
+pub(crate) mod foxglove_messages;
+pub(crate) mod json_schema;
+pub mod reader;
+pub mod recorder;
+pub mod topics;
+
+pub use board_message::board_topic;
+pub use error::RecordingError;
+pub use reader::{RawRead, Recording, read_recording};
+pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

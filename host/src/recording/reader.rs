@@ -1,0 +1,574 @@
+//! Reads a recording back: the raw reads for replay and a count of every channel's messages.
+//!
+//! A recording cut short (the daemon killed, the disk pulled) has no summary or footer and may
+//! end inside a chunk. The reader goes through the file from the start, keeps every chunk
+//! that is complete and whose CRC checks, and reports the file as truncated when it ends
+//! before the footer. A record whose length runs past the end of the file reads the same way,
+//! as a file cut inside that record. Anything else that is wrong is an error.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{self, BufReader, Read};
+use std::path::Path;
+
+use mcap::McapError;
+use mcap::sans_io::LinearReaderOptions;
+
+use super::error::RecordingError;
+use super::recorder::time_s;
+use super::topics::RAW_TOPIC;
+
+/// The longest record (or uncompressed chunk) read, bytes: far above what the recorder
+/// writes, and a bound on what a damaged length field can make the reader allocate.
+const MAX_RECORD_BYTES: usize = 256 * 1024 * 1024;
+
+/// One read from the serial port.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawRead {
+    /// Host time of the read, s (recorded to the nanosecond).
+    pub recv_time_s: f64,
+    /// The bytes as received.
+    pub bytes: Vec<u8>,
+}
+
+/// What a recording holds.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Recording {
+    /// Every read from the serial port, in log-time order (file order between equal times).
+    pub raw_reads: Vec<RawRead>,
+    /// Messages per topic, the raw reads included.
+    pub message_counts: BTreeMap<String, u64>,
+    /// Whether the file ends before its footer (the recorder did not finish): the records
+    /// above are those of the complete chunks.
+    pub truncated: bool,
+}
+
+/// Reads the recording at `path`, tolerating a file cut short by a kill (see the
+/// [module documentation](self)).
+///
+/// # Errors
+/// [`RecordingError::Open`] if the file cannot be read, [`RecordingError::NotMcap`] if it is
+/// not an MCAP file, [`RecordingError::Corrupt`] if it is damaged other than by being cut
+/// short.
+pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
+    let file = File::open(path).map_err(|source| RecordingError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    read_from(BufReader::new(file), path)
+}
+
+/// Reads a recording from `source`; `path` names it in errors.
+fn read_from(mut source: impl Read, path: &Path) -> Result<Recording, RecordingError> {
+    let mut magic = [0u8; 8];
+    match source.read_exact(&mut magic) {
+        Ok(()) if magic == mcap::MAGIC => {}
+        Ok(()) => return Err(not_mcap(path)),
+        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Err(not_mcap(path)),
+        Err(source) => {
+            return Err(RecordingError::Open {
+                path: path.to_path_buf(),
+                source,
+            });
+        }
+    }
+    let options = LinearReaderOptions::default()
+        // A chunk is used only once all of it is there and its CRC checks.
+        .with_prevalidate_chunk_crcs(true)
+        .with_record_length_limit(MAX_RECORD_BYTES);
+    let messages = mcap::io::MessageReader::new_with_options(magic.chain(source), options);
+
+    let mut recording = Recording::default();
+    let mut reads = Vec::new();
+    for message in messages {
+        match message {
+            Ok(message) => {
+                let topic = &message.channel.topic;
+                *recording.message_counts.entry(topic.clone()).or_default() += 1;
+                if topic == RAW_TOPIC {
+                    reads.push((message.log_time, message.data.into_owned()));
+                }
+            }
+            Err(McapError::UnexpectedEof) => {
+                recording.truncated = true;
+                break;
+            }
+            Err(source) => {
+                return Err(RecordingError::Corrupt {
+                    path: path.to_path_buf(),
+                    source,
+                });
+            }
+        }
+    }
+    // Stable: reads with equal times stay in file order.
+    reads.sort_by_key(|&(log_time_ns, _)| log_time_ns);
+    recording.raw_reads = reads
+        .into_iter()
+        .map(|(log_time_ns, bytes)| RawRead {
+            recv_time_s: time_s(log_time_ns),
+            bytes,
+        })
+        .collect();
+    Ok(recording)
+}
+
+fn not_mcap(path: &Path) -> RecordingError {
+    RecordingError::NotMcap {
+        path: path.to_path_buf(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{BufRead, Cursor};
+    use std::path::PathBuf;
+    use std::process::{Command, Stdio};
+
+    use foxglove::Decode;
+    use foxglove::messages::PoseInFrame;
+    use protocol::{
+        Encoder, FixQuality, FixSource, GpsFixMsg, HeartbeatMsg, MAX_WIRE_LEN, Message, Position,
+        RangeUnit, ScanMsg,
+    };
+
+    use super::*;
+    use crate::daemon::PoseView;
+    use crate::link::LinkReader;
+    use crate::recording::topics::{GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC};
+    use crate::recording::{Recorder, RecorderOptions, board_topic};
+
+    /// A fresh path in the temporary folder (removed when dropped).
+    struct TempPath(PathBuf);
+
+    impl TempPath {
+        fn new(name: &str) -> Self {
+            let path = std::env::temp_dir()
+                .join(format!("host-recording-{}-{name}.mcap", std::process::id()));
+            let _ = std::fs::remove_file(&path);
+            TempPath(path)
+        }
+    }
+
+    impl Drop for TempPath {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    fn options() -> RecorderOptions {
+        RecorderOptions {
+            sync_on_flush: false,
+            ..Default::default()
+        }
+    }
+
+    /// The board's message number `i` of a synthetic run: a heartbeat, with a scan every
+    /// second message and a GPS fix every fifth.
+    fn board_message(i: u32) -> Message {
+        if i % 5 == 4 {
+            Message::GpsFix(GpsFixMsg {
+                stamp_us: u64::from(i) * 10_000,
+                source: FixSource::Gga,
+                talker: *b"GP",
+                date: None,
+                time: None,
+                quality: FixQuality::Gps,
+                position: Some(Position {
+                    lat_ndeg: 48_000_000_000 + i64::from(i),
+                    lon_ndeg: 11_000_000_000,
+                }),
+                alt_msl_mm: Some(500_000),
+                geoid_sep_mm: None,
+                num_sats: Some(8),
+                hdop_centi: Some(110),
+                speed_mm_s: None,
+                course_cdeg: None,
+                gst: None,
+            })
+        } else if i % 2 == 1 {
+            let values = (0..181).map(|k| (k * 37 + i as u16) % 8000).collect();
+            Message::Scan(ScanMsg {
+                stamp_us: u64::from(i) * 10_000,
+                scan_counter: i,
+                start_angle_cdeg: 0,
+                step_angle_cdeg: 100,
+                unit: RangeUnit::Mm,
+                count_word: 181,
+                values,
+                status: 0,
+                sensor_indices: None,
+            })
+        } else {
+            Message::Heartbeat(HeartbeatMsg {
+                uptime_us: u64::from(i) * 10_000,
+            })
+        }
+    }
+
+    /// The wire bytes of `messages` board messages cut into reads of 1 to 300 bytes, so that
+    /// frames straddle reads; read `k` arrives at host time `k · 0.01` s.
+    fn synthetic_reads(messages: u32) -> Vec<(f64, Vec<u8>)> {
+        let mut encoder = Encoder::new();
+        let mut wire = Vec::new();
+        let mut out = [0u8; MAX_WIRE_LEN];
+        for i in 0..messages {
+            wire.extend_from_slice(encoder.encode(&board_message(i), &mut out).unwrap());
+        }
+        let mut reads = Vec::new();
+        let mut rest = wire.as_slice();
+        let mut k = 0usize;
+        while !rest.is_empty() {
+            let n = (1 + (k * 131) % 300).min(rest.len());
+            reads.push((k as f64 * 0.01, rest[..n].to_vec()));
+            rest = &rest[n..];
+            k += 1;
+        }
+        reads
+    }
+
+    /// Records `reads` as the daemon would: the raw bytes, then the messages they complete,
+    /// then the pose, flushing after every `reads_per_flush` reads. Returns the decoded
+    /// messages' topics in order.
+    fn record(
+        recorder: &mut Recorder,
+        reads: &[(f64, Vec<u8>)],
+        reads_per_flush: usize,
+    ) -> Vec<&'static str> {
+        let mut link = LinkReader::new();
+        let mut topics = Vec::new();
+        for (k, (t, bytes)) in reads.iter().enumerate() {
+            recorder.record_bytes(*t, bytes).unwrap();
+            for received in link.feed(bytes) {
+                recorder
+                    .record_message(*t, Some(*t - 0.005), &received)
+                    .unwrap();
+                topics.push(board_topic(received.message.kind()).unwrap());
+                if matches!(received.message, Message::GpsFix(_)) {
+                    topics.push(GPS_LOCATION_TOPIC);
+                }
+            }
+            let pose = PoseView {
+                x_m: k as f64,
+                time_s: *t,
+                ..Default::default()
+            };
+            recorder.record_pose(*t, &pose).unwrap();
+            topics.push(POSE_TOPIC);
+            if (k + 1) % reads_per_flush == 0 {
+                recorder.flush().unwrap();
+            }
+        }
+        topics
+    }
+
+    fn counts(topics: &[&str], raw_reads: usize) -> BTreeMap<String, u64> {
+        let mut counts = BTreeMap::new();
+        for topic in topics {
+            *counts.entry(topic.to_string()).or_default() += 1;
+        }
+        counts.insert(RAW_TOPIC.to_string(), raw_reads as u64);
+        counts
+    }
+
+    #[test]
+    fn round_trip_gives_back_every_read_and_message() {
+        let path = TempPath::new("round-trip");
+        let reads = synthetic_reads(60);
+        let mut recorder = Recorder::create(&path.0, options()).unwrap();
+        let topics = record(&mut recorder, &reads, 7);
+        let summary = recorder.finish().unwrap();
+
+        let recording = read_recording(&path.0).unwrap();
+        assert!(!recording.truncated);
+        assert_eq!(recording.raw_reads.len(), reads.len());
+        for (read, (t, bytes)) in recording.raw_reads.iter().zip(&reads) {
+            assert_eq!(&read.bytes, bytes);
+            assert!((read.recv_time_s - t).abs() < 1e-9);
+        }
+        let expected = counts(&topics, reads.len());
+        assert_eq!(recording.message_counts, expected);
+        assert_eq!(summary.message_counts, expected);
+        assert!(summary.chunk_count >= (reads.len() / 7) as u32);
+        // 60 messages: 12 fixes, 24 scans, 24 heartbeats.
+        assert_eq!(expected["/board/gps_fix"], 12);
+        assert_eq!(expected["/board/scan"], 24);
+
+        // Replaying the raw reads decodes the same messages.
+        let mut link = LinkReader::new();
+        let replayed: usize = recording
+            .raw_reads
+            .iter()
+            .map(|r| link.feed(&r.bytes).len())
+            .sum();
+        assert_eq!(replayed, 60);
+    }
+
+    #[test]
+    fn file_opens_as_standard_mcap_with_json_schemas_and_foxglove_messages() {
+        let path = TempPath::new("layout");
+        let reads = synthetic_reads(10);
+        let mut recorder = Recorder::create(&path.0, options()).unwrap();
+        record(&mut recorder, &reads, 3);
+        let pose = PoseView {
+            x_m: 2.5,
+            y_m: -1.0,
+            lat_deg: Some(48.1),
+            lon_deg: Some(11.5),
+            time_s: 9.0,
+            ..Default::default()
+        };
+        recorder.record_pose(9.0, &pose).unwrap();
+        recorder.finish().unwrap();
+
+        let bytes = std::fs::read(&path.0).unwrap();
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let by_topic: BTreeMap<_, _> = summary
+            .channels
+            .values()
+            .map(|c| (c.topic.clone(), c.clone()))
+            .collect();
+        let scan = &by_topic["/board/scan"];
+        assert_eq!(scan.message_encoding, "json");
+        let schema = scan.schema.as_ref().unwrap();
+        assert_eq!(schema.encoding, "jsonschema");
+        let schema: serde_json::Value = serde_json::from_slice(&schema.data).unwrap();
+        assert!(schema["properties"]["message"]["properties"]["values"].is_object());
+        let pose_channel = &by_topic[POSE_TOPIC];
+        assert_eq!(
+            pose_channel.schema.as_ref().unwrap().name,
+            "foxglove.PoseInFrame"
+        );
+        assert_eq!(
+            by_topic[GPS_LOCATION_TOPIC].schema.as_ref().unwrap().name,
+            "foxglove.LocationFix"
+        );
+        assert!(by_topic[RAW_TOPIC].schema.is_none());
+
+        let mut last_pose = None;
+        let mut last_location = None;
+        for message in mcap::MessageStream::new(&bytes).unwrap() {
+            let message = message.unwrap();
+            if message.channel.message_encoding == "json" {
+                let json: serde_json::Value = serde_json::from_slice(&message.data).unwrap();
+                assert!(json["message"].is_object(), "{json}");
+            }
+            match message.channel.topic.as_str() {
+                POSE_TOPIC => last_pose = Some(PoseInFrame::decode(&message.data[..]).unwrap()),
+                POSE_LOCATION_TOPIC => last_location = Some(message.log_time),
+                _ => {}
+            }
+        }
+        let position = last_pose.unwrap().pose.unwrap().position.unwrap();
+        assert_eq!((position.x, position.y), (2.5, -1.0));
+        assert_eq!(last_location, Some(9_000_000_000));
+    }
+
+    #[test]
+    fn same_calls_write_the_same_bytes() {
+        let reads = synthetic_reads(20);
+        let files: Vec<Vec<u8>> = ["det-a", "det-b"]
+            .iter()
+            .map(|name| {
+                let path = TempPath::new(name);
+                let mut recorder = Recorder::create(&path.0, options()).unwrap();
+                record(&mut recorder, &reads, 5);
+                recorder.finish().unwrap();
+                std::fs::read(&path.0).unwrap()
+            })
+            .collect();
+        assert_eq!(files[0], files[1]);
+    }
+
+    #[test]
+    fn garbage_is_not_an_mcap_file() {
+        let path = TempPath::new("garbage");
+        std::fs::write(&path.0, b"time,x,y\n0.0,1.0,2.0\n").unwrap();
+        let err = read_recording(&path.0).unwrap_err();
+        assert!(matches!(err, RecordingError::NotMcap { .. }), "{err}");
+        assert!(err.to_string().contains("not an MCAP file"), "{err}");
+
+        std::fs::write(&path.0, b"").unwrap();
+        assert!(matches!(
+            read_recording(&path.0),
+            Err(RecordingError::NotMcap { .. })
+        ));
+
+        // The magic, then a header record whose profile string is longer than the record:
+        // damaged, not merely cut short.
+        let mut bytes = mcap::MAGIC.to_vec();
+        bytes.push(0x01);
+        bytes.extend(4u64.to_le_bytes());
+        bytes.extend([0xFF; 4]);
+        bytes.extend(mcap::MAGIC);
+        let err = read_from(Cursor::new(bytes), &path.0).unwrap_err();
+        assert!(matches!(err, RecordingError::Corrupt { .. }), "{err}");
+
+        let missing = read_recording(Path::new("/nonexistent/run.mcap")).unwrap_err();
+        assert!(matches!(missing, RecordingError::Open { .. }), "{missing}");
+    }
+
+    #[test]
+    fn file_cut_anywhere_keeps_the_complete_chunks() {
+        let path = TempPath::new("cut");
+        let reads = synthetic_reads(40);
+        let per_flush = 4;
+        let options = RecorderOptions {
+            flush_interval_s: 1e9,
+            chunk_size: None,
+            ..options()
+        };
+        let mut recorder = Recorder::create(&path.0, options).unwrap();
+        record(&mut recorder, &reads, per_flush);
+        recorder.finish().unwrap();
+        let bytes = std::fs::read(&path.0).unwrap();
+        let full = read_from(Cursor::new(&bytes), &path.0).unwrap();
+        assert!(!full.truncated);
+
+        let mut previous = 0;
+        for cut in (8..bytes.len()).step_by(13) {
+            let part = read_from(Cursor::new(&bytes[..cut]), &path.0)
+                .unwrap_or_else(|e| panic!("cut at {cut}: {e}"));
+            assert!(part.truncated, "cut at {cut}");
+            let n = part.raw_reads.len();
+            assert!(n >= previous, "cut at {cut}: {n} < {previous}");
+            assert_eq!(part.raw_reads[..], full.raw_reads[..n], "cut at {cut}");
+            // Only whole chunks: each holds `per_flush` reads (the last may hold fewer).
+            assert!(
+                n.is_multiple_of(per_flush) || n == reads.len(),
+                "cut at {cut}: {n}"
+            );
+            previous = n;
+        }
+        // Cut before the summary, the file still gives back every read.
+        assert_eq!(previous, reads.len());
+    }
+
+    #[test]
+    fn recorder_flushes_by_itself_as_recorded_time_passes() {
+        let path = TempPath::new("auto-flush");
+        let reads = synthetic_reads(400);
+        let duration_s = reads.last().unwrap().0;
+        assert!(duration_s > 3.0, "{duration_s}");
+        let options = RecorderOptions {
+            flush_interval_s: 1.0,
+            chunk_size: None,
+            ..options()
+        };
+        let mut recorder = Recorder::create(&path.0, options).unwrap();
+        for (t, bytes) in &reads {
+            recorder.record_bytes(*t, bytes).unwrap();
+        }
+        // Die without finishing: nothing buffered reaches the file.
+        std::mem::forget(recorder);
+        let recording = read_recording(&path.0).unwrap();
+        assert!(recording.truncated);
+        let last_s = recording.raw_reads.last().unwrap().recv_time_s;
+        assert!(last_s >= duration_s - 1.0, "{last_s} of {duration_s}");
+        assert!(recording.raw_reads.len() < reads.len());
+    }
+
+    /// Set to the recording path, selects the child's part of the kill test.
+    const KILL_CHILD_ENV: &str = "HOST_RECORDING_KILL_CHILD";
+    /// Reads between two flushes in the child.
+    const CHILD_READS_PER_FLUSH: usize = 10;
+
+    /// The child process of [`recording_survives_kill_9`]: records without end and says on
+    /// stdout after each flush how many reads are flushed. Without the variable it does
+    /// nothing.
+    #[test]
+    #[ignore = "child process of recording_survives_kill_9"]
+    fn kill_child_records_until_killed() {
+        let Some(path) = std::env::var_os(KILL_CHILD_ENV) else {
+            return;
+        };
+        let options = RecorderOptions {
+            flush_interval_s: 1e9,
+            chunk_size: None,
+            ..options()
+        };
+        let mut recorder = Recorder::create(Path::new(&path), options).unwrap();
+        let reads = synthetic_reads(2_000);
+        let mut link = LinkReader::new();
+        let start = std::time::Instant::now();
+        // Bounded, should the parent die before killing us.
+        for (k, (t, bytes)) in reads.iter().enumerate() {
+            recorder.record_bytes(*t, bytes).unwrap();
+            for received in link.feed(bytes) {
+                recorder.record_message(*t, None, &received).unwrap();
+            }
+            if (k + 1) % CHILD_READS_PER_FLUSH == 0 {
+                recorder.flush().unwrap();
+                println!("flushed {}", k + 1);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+            if start.elapsed().as_secs() > 60 {
+                break;
+            }
+        }
+        // Never finish: the parent kills us first, or the file stays unfinished.
+        std::mem::forget(recorder);
+    }
+
+    #[test]
+    fn recording_survives_kill_9() {
+        use std::os::unix::process::ExitStatusExt;
+
+        let path = TempPath::new("kill-9");
+        let test_name = format!(
+            "{}::kill_child_records_until_killed",
+            module_path!().trim_start_matches("host::")
+        );
+        let mut child = Command::new(std::env::current_exe().unwrap())
+            .args([&test_name, "--exact", "--ignored", "--nocapture"])
+            .env(KILL_CHILD_ENV, &path.0)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Kept open until the child is dead: a closed pipe would make its next print fail.
+        let mut lines = io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut flushed = 0;
+        for line in lines.by_ref() {
+            if let Some(n) = line.unwrap().strip_prefix("flushed ") {
+                flushed = n.parse().unwrap();
+                if flushed >= 5 * CHILD_READS_PER_FLUSH {
+                    break;
+                }
+            }
+        }
+        // `Child::kill` sends SIGKILL on Unix.
+        child.kill().unwrap();
+        let status = child.wait().unwrap();
+        assert_eq!(status.signal(), Some(9), "{status:?}");
+        drop(lines);
+        assert!(
+            flushed >= 5 * CHILD_READS_PER_FLUSH,
+            "child flushed {flushed}"
+        );
+
+        let recording = read_recording(&path.0).unwrap();
+        assert!(recording.truncated);
+        let n = recording.raw_reads.len();
+        assert!(n >= flushed, "{n} < {flushed}");
+        assert!(n.is_multiple_of(CHILD_READS_PER_FLUSH), "{n}");
+        let expected = synthetic_reads(2_000);
+        for (read, (t, bytes)) in recording.raw_reads.iter().zip(&expected) {
+            assert_eq!(&read.bytes, bytes);
+            assert!((read.recv_time_s - t).abs() < 1e-9);
+        }
+        // The decoded messages of the flushed reads are all there too.
+        let mut link = LinkReader::new();
+        let decoded: Vec<_> = recording
+            .raw_reads
+            .iter()
+            .flat_map(|r| link.feed(&r.bytes))
+            .collect();
+        let scans = decoded
+            .iter()
+            .filter(|r| matches!(r.message, Message::Scan(_)))
+            .count() as u64;
+        assert!(scans > 0);
+        assert_eq!(recording.message_counts["/board/scan"], scans);
+    }
+}
