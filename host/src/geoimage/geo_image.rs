@@ -135,8 +135,10 @@ impl GeoImage {
                 (w, h, None, None, false)
             }
         };
+        // The PAM sidecar is read only when the file itself lacks something.
+        let needs_sidecar = tiff_transform.is_none() || (tiff_crs.is_none() && !has_geo_keys);
         let aux_path = aux_xml_path(path);
-        let aux = if aux_path.is_file() {
+        let aux = if needs_sidecar && aux_path.is_file() {
             Some(read_aux_xml(&aux_path)?)
         } else {
             None
@@ -332,4 +334,126 @@ fn sidecar_crs(image: &Path, aux_srs: Option<&str>) -> Result<Option<Crs>, GeoIm
         .filter(|s| !s.is_empty())
         .map(crs_from_wkt)
         .transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh temporary directory for one test.
+    fn temp_dir(test: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("geoimage-{test}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    const ESRI_UTM_18N: &str = r#"PROJCS["WGS_1984_UTM_Zone_18N",GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],PARAMETER["False_Easting",500000.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-75.0],PARAMETER["Scale_Factor",0.9996],PARAMETER["Latitude_Of_Origin",0.0],UNIT["Meter",1.0]]"#;
+
+    #[test]
+    fn jpeg_with_world_file_and_prj() {
+        let dir = temp_dir("jpeg");
+        let jpg = dir.join("map.jpg");
+        let (w, h) = (16u16, 8u16);
+        let rgb: Vec<u8> = (0..u32::from(w) * u32::from(h))
+            .flat_map(|_| [200, 30, 30])
+            .collect();
+        let encoder = jpeg_encoder::Encoder::new_file(&jpg, 95).unwrap();
+        encoder
+            .encode(&rgb, w, h, jpeg_encoder::ColorType::Rgb)
+            .unwrap();
+        // 10 m pixels; the world file gives the centre of the top-left pixel.
+        std::fs::write(dir.join("map.jgw"), "10\n0\n0\n-10\n500005\n4000095\n").unwrap();
+        std::fs::write(dir.join("map.prj"), ESRI_UTM_18N).unwrap();
+
+        let image = GeoImage::open(&jpg).unwrap();
+        assert_eq!(image.format(), ImageFormat::Jpeg);
+        assert_eq!((image.width(), image.height()), (16, 8));
+        assert_eq!(image.crs().map(|c| c.name.as_str()), Some("EPSG:32618"));
+        let info = image.info();
+        assert_eq!(info.corners_model.upper_left, [500_000.0, 4_000_100.0]);
+        assert_eq!(info.corners_model.lower_right, [500_160.0, 4_000_020.0]);
+        // Easting 500000 is zone 18's central meridian.
+        let [lon, _] = image.pixel_to_wgs84(0.0, 0.0).unwrap();
+        assert!((lon + 75.0).abs() < 1e-12, "{lon}");
+        let rgba = image.to_rgba8().unwrap();
+        assert_eq!(rgba.len(), 16 * 8 * 4);
+        let p = &rgba[(3 * 16 + 5) * 4..][..4];
+        assert!(p[0].abs_diff(200) <= 3 && p[1].abs_diff(30) <= 3 && p[2].abs_diff(30) <= 3);
+        assert_eq!(p[3], 255);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn plain_tiff_uses_tfw_and_aux_xml_srs() {
+        use tiff::encoder::{TiffEncoder, colortype};
+        let dir = temp_dir("tfw");
+        let tif = dir.join("plain.tif");
+        let grey: Vec<u8> = (0..12).map(|v| v * 20).collect();
+        let file = std::fs::File::create(&tif).unwrap();
+        let mut encoder = TiffEncoder::new(std::io::BufWriter::new(file)).unwrap();
+        encoder
+            .write_image::<colortype::Gray8>(4, 3, &grey)
+            .unwrap();
+        drop(encoder);
+        std::fs::write(
+            dir.join("plain.tfw"),
+            "0.5\r\n0\r\n0\r\n-0.5\r\n10.25\r\n49.75\r\n",
+        )
+        .unwrap();
+        let srs = crs_definitions::EPSG_4326.wkt.replace('"', "&quot;");
+        let aux = format!("<PAMDataset><SRS>{srs}</SRS></PAMDataset>");
+        std::fs::write(dir.join("plain.tif.aux.xml"), aux).unwrap();
+
+        let image = GeoImage::open(&tif).unwrap();
+        assert_eq!(image.crs().map(|c| c.name.as_str()), Some("EPSG:4326"));
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12;
+        assert!(close(image.pixel_to_wgs84(0.0, 0.0).unwrap(), [10.0, 50.0]));
+        assert!(close(image.pixel_to_wgs84(4.0, 3.0).unwrap(), [12.0, 48.5]));
+        assert!(close(image.wgs84_to_pixel(11.0, 49.0).unwrap(), [2.0, 2.0]));
+        let rgba = image.to_rgba8().unwrap();
+        assert_eq!(&rgba[4 * 5..4 * 6], &[100, 100, 100, 255]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn world_file_without_crs_has_model_but_no_wgs84_coordinates() {
+        let dir = temp_dir("nocrs");
+        let png = dir.join("scan.png");
+        let file = std::fs::File::create(&png).unwrap();
+        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 2, 2);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder
+            .write_header()
+            .unwrap()
+            .write_image_data(&[0, 1, 2, 3])
+            .unwrap();
+        std::fs::write(dir.join("scan.wld"), "1\n0\n0\n-1\n0.5\n9.5\n").unwrap();
+
+        let image = GeoImage::open(&png).unwrap();
+        assert!(image.crs().is_none());
+        assert_eq!(image.pixel_to_model(2.0, 2.0), [2.0, 8.0]);
+        assert!(matches!(
+            image.pixel_to_wgs84(0.0, 0.0),
+            Err(GeoImageError::NoCrs)
+        ));
+        let info = image.info();
+        assert!(info.corners_wgs84.is_none() && info.note.is_some());
+
+        std::fs::remove_file(dir.join("scan.wld")).unwrap();
+        let err = GeoImage::open(&png).unwrap_err();
+        assert!(
+            matches!(err, GeoImageError::NotGeoreferenced { .. }),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn unsupported_extension_and_missing_file_are_errors() {
+        let err = GeoImage::open(Path::new("map.bmp")).unwrap_err();
+        assert!(matches!(err, GeoImageError::UnsupportedFormat { .. }));
+        let err = GeoImage::open(Path::new("/nonexistent/map.tif")).unwrap_err();
+        assert!(matches!(err, GeoImageError::Io { .. }));
+    }
 }

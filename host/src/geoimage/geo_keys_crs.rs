@@ -11,6 +11,10 @@
 //!   datum code, else from the ellipsoid (`GeogEllipsoidGeoKey`, or the semi-axis and inverse
 //!   flattening keys), with `GeogTOWGS84GeoKey` as its Helmert to WGS84 and the prime meridian.
 //!
+//! With an EPSG projected or geographic CRS code, the EPSG definition is used as it is and a
+//! `GeogTOWGS84GeoKey` is ignored (the NAIP sample carries `[0, 0, 0]` beside NAD83, which
+//! changes nothing).
+//!
 //! The result is a PROJ.4 definition handed to [`Crs::from_proj_string`]; parameters are read in
 //! degrees (`GeogAngularUnitsGeoKey` 9102), the only angular unit accepted.
 
