@@ -1,6 +1,8 @@
 //! Host software for the robot computer: the board link and its time base.
 //!
 //! * [`evaluation`]: trajectory accuracy on ground-truth relations (Kümmerle et al. 2009).
+//! * [`geoimage`]: geo-referenced images (GeoTIFF, PNG/JPEG + world file) and their WGS84
+//!   corners; a GeoTIFF writer for the simulator's aerial image.
 //! * [`grid`]: occupancy-grid submaps, ray insertion, sub-cell scan refinement and map export.
 //! * [`link`]: reading the board's frames from a serial port, counting every lost frame,
 //!   and mapping board time to host time.
@@ -13,6 +15,7 @@
 pub mod daemon;
 pub mod ekf_slam;
 pub mod evaluation;
+pub mod geoimage;
 pub mod georef;
 pub mod grid;
 pub mod landmarks;

@@ -5,6 +5,8 @@
 //! prints every message as one JSON line on stdout and the link accounting once a second on
 //! stderr, and reopens the port after an unplug without losing its counters.
 
+mod georef_info;
+
 use std::io::{self, BufWriter, Read, Write};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -29,6 +31,8 @@ struct Cli {
 enum Command {
     /// Print every message from the board as JSON lines, with link accounting on stderr.
     Monitor(MonitorArgs),
+    /// Print a geo-referenced image's size, CRS and WGS84 corners as JSON.
+    GeorefInfo(georef_info::GeorefInfoArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -97,6 +101,7 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Command::GeorefInfo(args) => georef_info::run(&args),
     }
 }
 
