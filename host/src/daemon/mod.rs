@@ -5,6 +5,7 @@
 //! this module wires them together.
 
 pub mod state;
+pub mod web;
 
 pub use state::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
