@@ -7,6 +7,7 @@
 
 pub mod foxglove_live;
 pub mod state;
+pub mod web;
 
 pub use foxglove_live::{LiveServer, LiveServerError, start_live_server};
 pub use state::{

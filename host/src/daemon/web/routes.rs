@@ -1,0 +1,147 @@
+//! The routes: the page's files and the JSON API. Handlers only read the request, call the
+//! state or the goal resolver, and write the answer. The table of routes is in the module
+//! above.
+
+use std::sync::{Arc, PoisonError, RwLockReadGuard};
+
+use axum::body::Bytes;
+use axum::extract::State;
+use axum::http::{StatusCode, Uri, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{any, get, post};
+use axum::{Json, Router};
+
+use super::api_error::ApiError;
+use super::assets::{APP_JS, INDEX_HTML, STYLE_CSS};
+use super::goal_body::parse_goal_body;
+use super::map_render::{MapRenderError, render_map_png};
+use super::server::WebContext;
+use super::state_json::StateJson;
+use crate::daemon::LiveState;
+
+/// Longer side of the landmark map drawn for `/api/map.png`, pixels.
+const MAP_RENDER_SIDE_PX: u32 = 800;
+
+/// The router serving the page and the API from `context`.
+pub(crate) fn router(context: Arc<WebContext>) -> Router {
+    Router::new()
+        .route("/", get(|| async { INDEX_HTML }))
+        .route("/app.js", get(|| async { APP_JS }))
+        .route("/style.css", get(|| async { STYLE_CSS }))
+        .route("/api/state", get(state))
+        .route("/api/map.png", get(map_png))
+        .route("/api/image.png", get(image_png))
+        .route("/api/goal", post(goal))
+        .method_not_allowed_fallback(method_not_allowed)
+        .route("/api/{*rest}", any(api_not_found))
+        .fallback(page_not_found)
+        .with_state(context)
+}
+
+/// Reads the live state; a lock poisoned by a panicking writer still holds the last values.
+fn read(context: &WebContext) -> RwLockReadGuard<'_, LiveState> {
+    context.state.read().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// `GET /api/state`.
+async fn state(State(context): State<Arc<WebContext>>) -> Response {
+    let state = read(&context);
+    (
+        [(header::CACHE_CONTROL, "no-store")],
+        Json(StateJson::from(&*state)),
+    )
+        .into_response()
+}
+
+/// `GET /api/map.png`.
+async fn map_png(State(context): State<Arc<WebContext>>) -> Result<Response, ApiError> {
+    let (grid_png, trajectory_m, landmarks_m) = {
+        let state = read(&context);
+        match &state.grid {
+            Some(grid) => (Some(grid.png.clone()), Vec::new(), Vec::new()),
+            None => (
+                None,
+                state.trajectory_m.clone(),
+                state.landmarks.iter().map(|l| [l.x_m, l.y_m]).collect(),
+            ),
+        }
+    };
+    let png =
+        match grid_png {
+            Some(png) => png,
+            None => render_map_png(&trajectory_m, &landmarks_m, MAP_RENDER_SIDE_PX).map_err(
+                |error| match error {
+                    MapRenderError::Empty => {
+                        ApiError::new(StatusCode::NOT_FOUND, error.to_string())
+                    }
+                    MapRenderError::Encoding(_) => {
+                        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, error.to_string())
+                    }
+                },
+            )?,
+        };
+    Ok(png_response(png))
+}
+
+/// `GET /api/image.png`.
+async fn image_png(State(context): State<Arc<WebContext>>) -> Result<Response, ApiError> {
+    let png = context.image_png.as_ref().ok_or_else(|| {
+        ApiError::new(
+            StatusCode::NOT_FOUND,
+            "no geo-referenced image was loaded (start the daemon with an image)",
+        )
+    })?;
+    Ok(png_response(png.as_ref().clone()))
+}
+
+/// `POST /api/goal`.
+async fn goal(State(context): State<Arc<WebContext>>, body: Bytes) -> Result<Response, ApiError> {
+    let request = parse_goal_body(&body)
+        .map_err(|error| ApiError::new(StatusCode::BAD_REQUEST, error.to_string()))?;
+    let goal = context
+        .goal
+        .resolve(&request)
+        .map_err(|error| ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string()))?;
+    context
+        .state
+        .write()
+        .unwrap_or_else(PoisonError::into_inner)
+        .goal = Some(goal);
+    Ok(Json(goal).into_response())
+}
+
+/// Any other path under `/api/`.
+async fn api_not_found(uri: Uri) -> ApiError {
+    ApiError::new(
+        StatusCode::NOT_FOUND,
+        format!("no such API path: {}", uri.path()),
+    )
+}
+
+/// A known path asked for with the wrong method.
+async fn method_not_allowed(uri: Uri) -> ApiError {
+    ApiError::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        format!("method not allowed on {}", uri.path()),
+    )
+}
+
+/// Any other path.
+async fn page_not_found(uri: Uri) -> (StatusCode, String) {
+    (
+        StatusCode::NOT_FOUND,
+        format!("no such page: {}; the view is at /", uri.path()),
+    )
+}
+
+/// A PNG answer that the browser must not cache.
+fn png_response(png: Vec<u8>) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "image/png"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        png,
+    )
+        .into_response()
+}

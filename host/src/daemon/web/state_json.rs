@@ -1,0 +1,113 @@
+//! The body of `GET /api/state`: the live state as the page draws it.
+//!
+//! Everything in [`LiveState`] but the grid's PNG bytes, which the page fetches from
+//! `/api/map.png` only when the grid's `revision` changes.
+
+use std::hash::{DefaultHasher, Hash, Hasher};
+
+use serde::Serialize;
+
+use crate::daemon::state::{GridView, ImageView, LandmarkView};
+use crate::daemon::{GoalInMap, LinkCounters, LiveState, PoseView};
+
+/// A view of [`LiveState`] borrowed for serialisation.
+#[derive(Debug, Serialize)]
+pub(crate) struct StateJson<'a> {
+    /// The current pose.
+    pose: &'a PoseView,
+    /// Link and sensor counters.
+    counters: &'a LinkCounters,
+    /// Trajectory in the map frame, `[x_m, y_m]`.
+    trajectory_m: &'a [[f64; 2]],
+    /// Trajectory in WGS84, `[lon_deg, lat_deg]`.
+    trajectory_wgs84: &'a [[f64; 2]],
+    /// Landmarks of the built map.
+    landmarks: &'a [LandmarkView],
+    /// The occupancy grid's placement, when there is one.
+    grid: Option<GridJson>,
+    /// The goal last set.
+    goal: Option<&'a GoalInMap>,
+    /// The geo-referenced image, when there is one.
+    image: Option<&'a ImageView>,
+    /// Map frame → image pixels, `[a, b, c, d, e, f]`, once geo-referenced.
+    pixel_from_map: Option<[f64; 6]>,
+}
+
+/// Where the occupancy grid lies, without its pixels.
+#[derive(Debug, Serialize, PartialEq)]
+pub(crate) struct GridJson {
+    /// Cell size, metres.
+    resolution_m: f64,
+    /// Map-frame position of the grid's lower-left corner, metres.
+    origin_m: [f64; 2],
+    /// Width and height in cells.
+    size_cells: [u32; 2],
+    /// Changes whenever the PNG changes: a hash of its bytes, in hexadecimal.
+    revision: String,
+}
+
+impl<'a> From<&'a LiveState> for StateJson<'a> {
+    fn from(state: &'a LiveState) -> Self {
+        StateJson {
+            pose: &state.pose,
+            counters: &state.counters,
+            trajectory_m: &state.trajectory_m,
+            trajectory_wgs84: &state.trajectory_wgs84,
+            landmarks: &state.landmarks,
+            grid: state.grid.as_ref().map(GridJson::from),
+            goal: state.goal.as_ref(),
+            image: state.image.as_ref(),
+            pixel_from_map: state.pixel_from_map,
+        }
+    }
+}
+
+impl From<&GridView> for GridJson {
+    fn from(grid: &GridView) -> Self {
+        let mut hasher = DefaultHasher::new();
+        grid.png.hash(&mut hasher);
+        GridJson {
+            resolution_m: grid.resolution_m,
+            origin_m: grid.origin_m,
+            size_cells: grid.size_cells,
+            revision: format!("{:016x}", hasher.finish()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(png: Vec<u8>) -> GridView {
+        GridView {
+            png,
+            resolution_m: 0.05,
+            origin_m: [-1.0, -2.0],
+            size_cells: [40, 20],
+        }
+    }
+
+    #[test]
+    fn test_grid_revision_follows_the_png_bytes() {
+        let first = GridJson::from(&grid(vec![1, 2, 3]));
+        let same = GridJson::from(&grid(vec![1, 2, 3]));
+        let changed = GridJson::from(&grid(vec![1, 2, 4]));
+        assert_eq!(first.revision, same.revision);
+        assert_ne!(first.revision, changed.revision);
+    }
+
+    #[test]
+    fn test_state_json_leaves_out_the_grid_pixels() {
+        let state = LiveState {
+            grid: Some(grid(vec![0x89, b'P', b'N', b'G'])),
+            ..LiveState::default()
+        };
+        let json = serde_json::to_value(StateJson::from(&state)).unwrap();
+        let grid = &json["grid"];
+        assert_eq!(grid["resolution_m"], 0.05);
+        assert_eq!(grid["origin_m"], serde_json::json!([-1.0, -2.0]));
+        assert_eq!(grid["size_cells"], serde_json::json!([40, 20]));
+        assert!(grid.get("png").is_none());
+    }
+}
