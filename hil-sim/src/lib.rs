@@ -2,6 +2,7 @@
 
 pub mod bench_match;
 pub mod board;
+pub mod bringup;
 pub mod decode_nmea;
 pub mod decode_sick;
 pub mod demo;

@@ -15,6 +15,39 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// The whole system, no hardware and no data files: a seeded world with a generated,
+    /// geo-referenced aerial image; emulated laser and GPS → the firmware tasks on the host →
+    /// a pty → the robot-host daemon, which maps (EKF with GPS outdoors, occupancy grid
+    /// indoors), records to MCAP and serves the web view, whose address it prints. At the end
+    /// OUT holds the map PNG, the map over the image, the trajectory, GeoJSON/KML, the MCAP
+    /// recording and a summary; the report is printed as JSON.
+    Demo {
+        /// The world: `outdoor` (a park with trees and a building, GPS, aerial image) or
+        /// `indoor` (rooms and corridors, occupancy grid).
+        #[arg(long, default_value = "outdoor")]
+        world: hil_sim::world::WorldKind,
+        /// Seed of the world, its route and the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Seconds of driving.
+        #[arg(long, default_value_t = 60.0)]
+        duration: f64,
+        /// Address of the web view (port 0 picks a free one).
+        #[arg(long, default_value = "127.0.0.1:8080")]
+        serve: std::net::SocketAddr,
+        /// Also stream the live state to Foxglove on this WebSocket address.
+        #[arg(long)]
+        foxglove: Option<std::net::SocketAddr>,
+        /// Where the outputs go.
+        #[arg(long, default_value = "demo-out")]
+        out: PathBuf,
+        /// Run as fast as the machine allows instead of at the wall clock.
+        #[arg(long)]
+        fast: bool,
+        /// After the drive, keep the web view up this many seconds.
+        #[arg(long, default_value_t = 0.0)]
+        linger: f64,
+    },
     /// Run the whole chain on a seeded world: emulated LMS2xx laser and NMEA GPS → pseudo-
     /// terminals → the firmware tasks → host link → the host's pose estimate, lock-step on a
     /// virtual clock (byte-identical outputs for the same arguments).
@@ -230,10 +263,10 @@ enum Command {
         /// The receiver log.
         file: PathBuf,
     },
-    /// Run the whole chain on built-in defaults: emulated LMS200 and GPS → firmware tasks →
-    /// host link, all over pseudo-terminals. Prints laser state changes on stderr and a JSON
-    /// report (every scan and fix accounted for) on stdout.
-    Demo {
+    /// Bring a freshly powered emulated LMS200 up on the wall clock: emulated LMS200 and GPS
+    /// → firmware tasks → host link, all over pseudo-terminals. Prints laser state changes on
+    /// stderr and a JSON report (every scan and fix accounted for) on stdout.
+    Bringup {
         /// How long to run, seconds.
         #[arg(long, default_value_t = 8.0)]
         seconds: f64,
@@ -288,11 +321,28 @@ impl HardwareArgs {
     }
 }
 
-fn demo(options: hil_sim::demo::DemoOptions) -> Result<(), Box<dyn std::error::Error>> {
+fn demo(options: &hil_sim::demo::DemoOptions) -> Result<(), Box<dyn std::error::Error>> {
+    let report = hil_sim::demo::run(options, |ready| {
+        if let Some(web) = ready.web {
+            println!("web view: http://{web}/");
+        }
+        if let Some(foxglove) = ready.foxglove {
+            println!("foxglove: ws://{foxglove}");
+        }
+        eprintln!(
+            "driving the {} world (seed {}) for {} s …",
+            options.world, options.seed, options.duration_s
+        );
+    })?;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
+
+fn bringup(options: hil_sim::bringup::BringUpOptions) -> Result<(), Box<dyn std::error::Error>> {
     if !(options.seconds.is_finite() && options.seconds > 0.0) {
         return Err("--seconds must be a positive number".into());
     }
-    let report = hil_sim::demo::run(options)?;
+    let report = hil_sim::bringup::run(options)?;
     println!("{}", serde_json::to_string_pretty(&report)?);
     // The firmware tasks run forever, as on the board; the process ends them.
     std::process::exit(0);
@@ -408,6 +458,25 @@ fn report(
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo {
+            world,
+            seed,
+            duration,
+            serve,
+            foxglove,
+            out,
+            fast,
+            linger,
+        } => demo(&hil_sim::demo::DemoOptions {
+            world,
+            seed,
+            duration_s: duration,
+            serve,
+            foxglove,
+            out,
+            realtime: !fast,
+            linger_s: linger,
+        }),
         Command::Run {
             world,
             seed,
@@ -543,12 +612,12 @@ fn main() -> ExitCode {
         Command::BenchMatch { log, pairs } => bench_match(&log, pairs),
         Command::DecodeSick { file } => hil_sim::decode_sick::run(&file),
         Command::DecodeNmea { file } => hil_sim::decode_nmea::run(&file),
-        Command::Demo {
+        Command::Bringup {
             seconds,
             gps_rate_hz,
             laser_restart_s,
             seed,
-        } => demo(hil_sim::demo::DemoOptions {
+        } => bringup(hil_sim::bringup::BringUpOptions {
             seconds,
             gps_rate_hz,
             laser_restart_s,

@@ -268,6 +268,7 @@ pub struct Engine<'c, W: World> {
     next_ping_us: u64,
     realtime: Option<Instant>,
     gps_replay: Option<GpsReplay>,
+    relay: Option<Endpoint>,
 }
 
 /// Where a run stands.
@@ -318,7 +319,16 @@ impl<'c, W: World> Engine<'c, W> {
             next_ping_us: PING_PERIOD_US / 2,
             realtime: realtime.then(Instant::now),
             gps_replay: None,
+            relay: None,
         }
+    }
+
+    /// Passes the host link on to another program through `link` (a pty whose other end it
+    /// opened as its serial port): the frames the board sends go on to it as they are read,
+    /// and what it writes goes to the board. It then keeps the board's clock in sync, so this
+    /// side stops pinging and only counts.
+    pub fn relay_host_link(&mut self, link: PtyLink) {
+        self.relay = Some(Endpoint::wall(Line::Pty(link)));
     }
 
     /// What the byte faults did to the laser and GPS streams.
@@ -467,8 +477,19 @@ impl<'c, W: World> Engine<'c, W> {
             self.host.bytes_while_unplugged += frames.len() as u64;
         } else if !frames.is_empty() {
             self.host.feed(&frames, t_us as f64 * 1e-6);
+            if let Some(relay) = self.relay.as_mut() {
+                relay.write(&frames)?;
+            }
         }
-        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty())
+        let mut relayed = false;
+        if let Some(relay) = self.relay.as_mut() {
+            let to_board = relay.read_available()?;
+            if !to_board.is_empty() && self.unplugged_until_us.is_none() {
+                self.host_end.write(&to_board)?;
+                relayed = true;
+            }
+        }
+        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty() || relayed)
     }
 
     /// The fault events and the emulators' output at `t_us`. Returns whether anything was
@@ -626,7 +647,7 @@ impl<'c, W: World> Engine<'c, W> {
             return Ok(false);
         }
         self.next_ping_us += PING_PERIOD_US;
-        if self.unplugged_until_us.is_some() {
+        if self.unplugged_until_us.is_some() || self.relay.is_some() {
             return Ok(false);
         }
         let ping = self.host.ping(t_us as f64 * 1e-6);

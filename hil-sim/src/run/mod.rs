@@ -137,6 +137,24 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
 /// # Errors
 /// As [`run`].
 pub fn run_on(options: &RunOptions, lines: Option<WallLines>) -> io::Result<RunSummary> {
+    run_chain(options, lines, None)
+}
+
+/// As [`run`] with the firmware in this process, passing the host link on through `relay`
+/// to the program that opened its other end (the robot computer's daemon), which then
+/// drives the board's clock sync; this side keeps its accounting.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_relayed(options: &RunOptions, relay: PtyLink) -> io::Result<RunSummary> {
+    run_chain(options, None, Some(relay))
+}
+
+fn run_chain(
+    options: &RunOptions,
+    lines: Option<WallLines>,
+    relay: Option<PtyLink>,
+) -> io::Result<RunSummary> {
     check_duration(options.duration_s)?;
     fs::create_dir_all(&options.out)?;
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
@@ -165,7 +183,7 @@ pub fn run_on(options: &RunOptions, lines: Option<WallLines>) -> io::Result<RunS
         },
         pixel_m: if outdoor { 0.1 } else { 0.05 },
     };
-    let (summary, records) = execute(chain, options, options.duration_s, lines)?;
+    let (summary, records) = execute(chain, options, options.duration_s, lines, relay)?;
     write_outputs(&options.out, &records, &summary)?;
     scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(
         options.out.join("landmarks.tsv"),
@@ -383,7 +401,7 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
         realtime: options.realtime,
         hardware: options.hardware.clone(),
     };
-    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s, lines)?;
+    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s, lines, None)?;
     summary.world = format!("replay of {}", options.source);
     write_outputs(&options.out, &records, &summary)?;
     Ok(summary)
@@ -419,6 +437,7 @@ fn execute(
     options: &RunOptions,
     duration_s: f64,
     lines: Option<WallLines>,
+    relay: Option<PtyLink>,
 ) -> io::Result<(RunSummary, Vec<ScanRecord>)> {
     let mut gps_options = GpsEmulatorOptions {
         seed: options.seed ^ 0x6750,
@@ -491,6 +510,9 @@ fn execute(
         host,
         options.realtime,
     );
+    if let Some(relay) = relay {
+        engine.relay_host_link(relay);
+    }
     let outcome = engine.run(duration_us);
     board.stop();
     outcome?;

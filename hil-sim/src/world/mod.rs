@@ -13,6 +13,7 @@
 //!   park, each a [`Layout`] with [`Landmark`]s and a [`Route`]) and the robot's true
 //!   [`Trajectory`] of [`RobotState`]s round it, driven by [`PurePursuit`].
 
+pub mod aerial;
 pub mod geo;
 pub mod indoor;
 pub mod landmark;

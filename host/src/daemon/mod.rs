@@ -5,11 +5,21 @@
 //! The algorithms live in the rest of the crate and know nothing of threads, HTTP or files;
 //! this module wires them together.
 
+pub mod config;
+pub mod ekf_pipeline;
 pub mod foxglove_live;
+pub mod goal;
+pub mod grid_pipeline;
+pub mod link_session;
+pub mod outputs;
+pub mod publish;
+pub mod replay;
+pub mod runner;
 pub mod state;
 pub mod web;
 
 pub use foxglove_live::{LiveServer, LiveServerError, start_live_server};
 pub use state::{
-    GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
+    GoalError, GoalInMap, GoalRequest, GoalResolver, GridView, ImageView, LandmarkView,
+    LinkCounters, LiveState, PoseView, SharedState,
 };

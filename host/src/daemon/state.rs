@@ -99,6 +99,9 @@ pub struct LiveState {
     /// Map frame → image pixels, once the map is geo-referenced: `[a, b, c, d, e, f]` with
     /// `col = a + b·x_m + c·y_m`, `row = d + e·x_m + f·y_m` (fitted over the map's extent).
     pub pixel_from_map: Option<[f64; 6]>,
+    /// The datum `[lat_deg, lon_deg]` of the local metric frame that the map frame is, once
+    /// the map is geo-referenced.
+    pub datum_lat_lon_deg: Option<[f64; 2]>,
 }
 
 /// The geo-referenced image the web view draws under the map.

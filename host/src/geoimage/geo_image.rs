@@ -318,6 +318,28 @@ impl GeoImage {
         }
         Ok(image.pixels)
     }
+
+    /// The image as an RGBA PNG, for a web page to show.
+    ///
+    /// # Errors
+    /// As [`Self::to_rgba8`]; [`GeoImageError::Malformed`] if the PNG cannot be encoded.
+    pub fn to_png(&self) -> Result<Vec<u8>, GeoImageError> {
+        let rgba = self.to_rgba8()?;
+        let mut out = Vec::new();
+        let encode = |out: &mut Vec<u8>| -> Result<(), png::EncodingError> {
+            let mut encoder = png::Encoder::new(out, self.width, self.height);
+            encoder.set_color(png::ColorType::Rgba);
+            encoder.set_depth(png::BitDepth::Eight);
+            let mut writer = encoder.write_header()?;
+            writer.write_image_data(&rgba)?;
+            writer.finish()
+        };
+        encode(&mut out).map_err(|e| GeoImageError::Malformed {
+            path: self.path.clone(),
+            message: format!("cannot encode as PNG: {e}"),
+        })?;
+        Ok(out)
+    }
 }
 
 /// The CRS from `image`'s `.prj` (WKT) or the `.aux.xml` `<SRS>` WKT already read.

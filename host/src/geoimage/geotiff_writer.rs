@@ -91,7 +91,97 @@ pub fn write_geotiff_rgb8(
     ];
     let [e, n] = georef.upper_left_m;
     let s = georef.pixel_size_m;
+    write_tiff(path, width, height, rgb, [s, s], [e, n], &directory, &ascii)
+}
 
+/// Where a north-up image lies in WGS 84 latitude and longitude (EPSG:4326).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeographicGeoref {
+    /// Longitude and latitude, degrees, of the **outer** upper-left corner of the upper-left
+    /// pixel.
+    pub upper_left_lon_lat_deg: [f64; 2],
+    /// Width and height of a pixel in longitude and latitude, degrees (they may differ, so
+    /// that a pixel is square in metres at some latitude).
+    pub pixel_size_deg: [f64; 2],
+}
+
+/// Writes `rgb` (`width × height` pixels, row-major, 3 bytes each) to `path` as a GeoTIFF in
+/// WGS 84 latitude/longitude (EPSG:4326) geo-referenced by `georef`.
+///
+/// # Errors
+/// [`GeoImageError::InvalidArgument`] when the buffer length does not match, a size is zero,
+/// a pixel size is not finite and positive or the corner is not a longitude and latitude;
+/// [`GeoImageError::Io`] / [`GeoImageError::Tiff`] when writing fails.
+pub fn write_geotiff_geographic_rgb8(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+    georef: &GeographicGeoref,
+) -> Result<(), GeoImageError> {
+    let invalid = |m: String| GeoImageError::InvalidArgument(m);
+    if width == 0 || height == 0 {
+        return Err(invalid(format!("image size {width}×{height} is empty")));
+    }
+    let expected = width as usize * height as usize * 3;
+    if rgb.len() != expected {
+        return Err(invalid(format!(
+            "RGB buffer has {} bytes, {width}×{height}×3 = {expected} expected",
+            rgb.len()
+        )));
+    }
+    if !georef
+        .pixel_size_deg
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0)
+    {
+        return Err(invalid(format!(
+            "pixel size {:?}° is not positive",
+            georef.pixel_size_deg
+        )));
+    }
+    let [lon, lat] = georef.upper_left_lon_lat_deg;
+    if !(lon.is_finite() && lat.is_finite() && lon.abs() <= 180.0 && lat.abs() <= 90.0) {
+        return Err(invalid(format!(
+            "upper-left corner {:?} is not a longitude and latitude",
+            georef.upper_left_lon_lat_deg
+        )));
+    }
+    let ascii = "WGS 84|";
+    #[rustfmt::skip]
+    let directory: [u16; 24] = [
+        1, 1, 0, 5, // version 1.1.0, 5 keys, sorted by id
+        1024, 0, 1, 2, // GTModelTypeGeoKey = geographic
+        1025, 0, 1, 1, // GTRasterTypeGeoKey = PixelIsArea
+        2048, 0, 1, 4326, // GeographicTypeGeoKey = WGS 84
+        2049, 34737, 7, 0, // GeogCitationGeoKey in GeoAsciiParams
+        2054, 0, 1, 9102, // GeogAngularUnitsGeoKey = degree
+    ];
+    write_tiff(
+        path,
+        width,
+        height,
+        rgb,
+        georef.pixel_size_deg,
+        [lon, lat],
+        &directory,
+        ascii,
+    )
+}
+
+/// Writes the image with its pixel scale, the tie point of raster (0, 0) and the GeoKeys.
+#[allow(clippy::too_many_arguments)]
+fn write_tiff(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+    pixel_scale: [f64; 2],
+    upper_left: [f64; 2],
+    directory: &[u16],
+    ascii: &str,
+) -> Result<(), GeoImageError> {
+    let [e, n] = upper_left;
     let io_err = |source| GeoImageError::Io {
         path: path.to_path_buf(),
         source,
@@ -108,13 +198,16 @@ pub fn write_geotiff_rgb8(
         .new_image::<colortype::RGB8>(width, height)
         .map_err(tiff_err)?;
     let dir = image.encoder();
-    dir.write_tag(Tag::ModelPixelScaleTag, &[s, s, 0.0][..])
-        .map_err(tiff_err)?;
+    dir.write_tag(
+        Tag::ModelPixelScaleTag,
+        &[pixel_scale[0], pixel_scale[1], 0.0][..],
+    )
+    .map_err(tiff_err)?;
     dir.write_tag(Tag::ModelTiepointTag, &[0.0, 0.0, 0.0, e, n, 0.0][..])
         .map_err(tiff_err)?;
-    dir.write_tag(Tag::GeoKeyDirectoryTag, &directory[..])
+    dir.write_tag(Tag::GeoKeyDirectoryTag, directory)
         .map_err(tiff_err)?;
-    dir.write_tag(Tag::GeoAsciiParamsTag, ascii.as_str())
+    dir.write_tag(Tag::GeoAsciiParamsTag, ascii)
         .map_err(tiff_err)?;
     image.write_data(rgb).map_err(tiff_err)?;
     Ok(())
@@ -180,6 +273,28 @@ mod tests {
             .flat_map(|p| [p[0], p[1], p[2]])
             .collect();
         assert_eq!(back, rgb);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn geographic_round_trip() {
+        use super::super::GeoImage;
+        let dir = std::env::temp_dir().join(format!("geoimage-geographic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("aerial.tif");
+        let (w, h) = (40u32, 20u32);
+        let rgb = vec![90u8; (w * h * 3) as usize];
+        let georef = GeographicGeoref {
+            upper_left_lon_lat_deg: [11.5, 48.12],
+            pixel_size_deg: [1e-5, 2e-5],
+        };
+        write_geotiff_geographic_rgb8(&path, w, h, &rgb, &georef).unwrap();
+        let image = GeoImage::open(&path).unwrap();
+        assert_eq!(image.crs().and_then(|c| c.epsg), Some(4326));
+        let [lon, lat] = image.pixel_to_wgs84(40.0, 20.0).unwrap();
+        assert!((lon - 11.5004).abs() < 1e-12 && (lat - 48.1196).abs() < 1e-12);
+        let [col, row] = image.wgs84_to_pixel(11.5001, 48.1198).unwrap();
+        assert!((col - 10.0).abs() < 1e-6 && (row - 10.0).abs() < 1e-6);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -37,4 +37,6 @@ pub use crs::{CrsInfo, NAD27_TO_WGS84_TOWGS84};
 pub use error::GeoImageError;
 pub use geo_image::{Corners, GeoImage, GeoImageInfo, ImageFormat};
 pub use geo_transform::GeoTransform;
-pub use geotiff_writer::{ProjectedGeoref, write_geotiff_rgb8};
+pub use geotiff_writer::{
+    GeographicGeoref, ProjectedGeoref, write_geotiff_geographic_rgb8, write_geotiff_rgb8,
+};

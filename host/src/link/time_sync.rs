@@ -59,6 +59,11 @@ impl TimeSync {
         }
     }
 
+    /// Pings sent and not yet acknowledged (nor forgotten).
+    pub fn pending_pings(&self) -> usize {
+        self.pending.len()
+    }
+
     /// The board → host clock mapping.
     pub fn clock(&self) -> &ClockSync {
         &self.clock

@@ -21,5 +21,5 @@ pub mod topics;
 
 pub use board_message::board_topic;
 pub use error::RecordingError;
-pub use reader::{RawRead, Recording, read_recording};
+pub use reader::{LinkDirection, LinkRecord, RawRead, Recording, read_recording};
 pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

@@ -16,7 +16,7 @@ use mcap::sans_io::LinearReaderOptions;
 
 use super::error::RecordingError;
 use super::recorder::time_s;
-use super::topics::RAW_TOPIC;
+use super::topics::{RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
 
 /// The longest record (or uncompressed chunk) read, bytes: far above what the recorder
 /// writes, and a bound on what a damaged length field can make the reader allocate.
@@ -31,11 +31,36 @@ pub struct RawRead {
     pub bytes: Vec<u8>,
 }
 
+/// Which way bytes went on the link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinkDirection {
+    /// Read from the board.
+    FromBoard,
+    /// Written to the board.
+    ToBoard,
+    /// The port was reopened (no bytes).
+    Reconnect,
+}
+
+/// One read, write or reopening of the serial port.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkRecord {
+    /// Host time, s (recorded to the nanosecond).
+    pub time_s: f64,
+    /// Which way.
+    pub direction: LinkDirection,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+}
+
 /// What a recording holds.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Recording {
     /// Every read from the serial port, in log-time order (file order between equal times).
     pub raw_reads: Vec<RawRead>,
+    /// Every read, write and reopening of the port, in log-time order (file order between
+    /// equal times): what a replay goes through.
+    pub link: Vec<LinkRecord>,
     /// Messages per topic, the raw reads included.
     pub message_counts: BTreeMap<String, u64>,
     /// Whether the file ends before its footer (the recorder did not finish): the records
@@ -80,13 +105,24 @@ fn read_from(mut source: impl Read, path: &Path) -> Result<Recording, RecordingE
 
     let mut recording = Recording::default();
     let mut reads = Vec::new();
+    let mut link = Vec::new();
     for message in messages {
         match message {
             Ok(message) => {
                 let topic = &message.channel.topic;
                 *recording.message_counts.entry(topic.clone()).or_default() += 1;
-                if topic == RAW_TOPIC {
-                    reads.push((message.log_time, message.data.into_owned()));
+                let direction = match topic.as_str() {
+                    RAW_TOPIC => Some(LinkDirection::FromBoard),
+                    SENT_TOPIC => Some(LinkDirection::ToBoard),
+                    RECONNECT_TOPIC => Some(LinkDirection::Reconnect),
+                    _ => None,
+                };
+                if let Some(direction) = direction {
+                    let bytes = message.data.into_owned();
+                    if direction == LinkDirection::FromBoard {
+                        reads.push((message.log_time, bytes.clone()));
+                    }
+                    link.push((message.log_time, direction, bytes));
                 }
             }
             Err(McapError::UnexpectedEof) => {
@@ -101,7 +137,16 @@ fn read_from(mut source: impl Read, path: &Path) -> Result<Recording, RecordingE
             }
         }
     }
-    // Stable: reads with equal times stay in file order.
+    // Stable: records with equal times stay in file order.
+    link.sort_by_key(|&(log_time_ns, _, _)| log_time_ns);
+    recording.link = link
+        .into_iter()
+        .map(|(log_time_ns, direction, bytes)| LinkRecord {
+            time_s: time_s(log_time_ns),
+            direction,
+            bytes,
+        })
+        .collect();
     reads.sort_by_key(|&(log_time_ns, _)| log_time_ns);
     recording.raw_reads = reads
         .into_iter()

@@ -34,7 +34,10 @@ use super::board_message::{BoardChannel, board_channel, board_json};
 use super::durable_file::DurableFile;
 use super::error::RecordingError;
 use super::foxglove_messages::{gps_location, pose_in_frame, pose_location};
-use super::topics::{GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC, RAW_ENCODING, RAW_TOPIC};
+use super::topics::{
+    GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC, RAW_ENCODING, RAW_TOPIC, RECONNECT_TOPIC,
+    SENT_TOPIC,
+};
 use crate::daemon::PoseView;
 
 /// Options of [`Recorder`].
@@ -65,7 +68,7 @@ impl Default for RecorderOptions {
 }
 
 /// What a finished recording holds.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct RecordingSummary {
     /// Messages per topic (topics without messages are left out).
     pub message_counts: BTreeMap<String, u64>,
@@ -166,6 +169,29 @@ impl Recorder {
         self.ensure_raw_channel()?;
         self.write(RAW_TOPIC, log_time_ns, log_time_ns, bytes)?;
         self.after_record(recv_time_s)
+    }
+
+    /// Records one write to the serial port: `bytes` exactly as sent, at host time
+    /// `sent_time_s`.
+    ///
+    /// # Errors
+    /// As [`Self::record_bytes`].
+    pub fn record_sent(&mut self, sent_time_s: f64, bytes: &[u8]) -> Result<(), RecordingError> {
+        let log_time_ns = time_ns(sent_time_s)?;
+        self.ensure_schemaless_channel(SENT_TOPIC)?;
+        self.write(SENT_TOPIC, log_time_ns, log_time_ns, bytes)?;
+        self.after_record(sent_time_s)
+    }
+
+    /// Records that the serial port was reopened at host time `time_s`.
+    ///
+    /// # Errors
+    /// As [`Self::record_bytes`].
+    pub fn record_reconnect(&mut self, time_s: f64) -> Result<(), RecordingError> {
+        let log_time_ns = time_ns(time_s)?;
+        self.ensure_schemaless_channel(RECONNECT_TOPIC)?;
+        self.write(RECONNECT_TOPIC, log_time_ns, log_time_ns, &[])?;
+        self.after_record(time_s)
     }
 
     /// Records one decoded message on its kind's channel, at host time `recv_time_s` (the log
@@ -291,6 +317,12 @@ impl Recorder {
             let metadata =
                 BTreeMap::from([("protocol_version".to_string(), PROTOCOL_VERSION.to_string())]);
             writer.add_channel(0, RAW_TOPIC, RAW_ENCODING, &metadata)
+        })
+    }
+
+    fn ensure_schemaless_channel(&mut self, topic: &'static str) -> Result<(), RecordingError> {
+        self.ensure_channel(topic, |writer| {
+            writer.add_channel(0, topic, RAW_ENCODING, &BTreeMap::new())
         })
     }
 

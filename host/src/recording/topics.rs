@@ -7,6 +7,15 @@
 /// [`crate::link::LinkReader`] again. Schemaless, message encoding [`RAW_ENCODING`].
 pub const RAW_TOPIC: &str = "/link/raw";
 
+/// The bytes of each write to the serial port (commands and time-sync pings), exactly as
+/// sent: replay needs the pings to time the board's acknowledgements. Schemaless, message
+/// encoding [`RAW_ENCODING`].
+pub const SENT_TOPIC: &str = "/link/sent";
+
+/// A reopened serial port (empty message): replay forgets a partial frame there, as the live
+/// reader did. Schemaless, message encoding [`RAW_ENCODING`].
+pub const RECONNECT_TOPIC: &str = "/link/reconnect";
+
 /// Message encoding of [`RAW_TOPIC`]: opaque bytes.
 pub const RAW_ENCODING: &str = "application/octet-stream";
 

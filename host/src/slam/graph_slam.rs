@@ -144,6 +144,12 @@ impl GraphSlam {
         self.stats
     }
 
+    /// Every scan's pose in the map frame as the graph holds it now (loop closures so far
+    /// applied).
+    pub fn poses_in_map(&self) -> Vec<Pose2> {
+        self.graph.nodes().iter().map(|n| n.pose_in_map).collect()
+    }
+
     fn pose_in_map(&self, node: usize) -> Option<Pose2> {
         self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
     }

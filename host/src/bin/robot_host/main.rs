@@ -1,5 +1,10 @@
 //! `robot-host`: the host side of the board link.
 //!
+//! `robot-host run --port /dev/ttyACM0` is the daemon: it reads the board, runs the SLAM
+//! pipelines, records to MCAP, and serves the web view and the live Foxglove stream.
+//! `robot-host replay FILE.mcap` runs a recording through the same pipelines.
+//! `robot-host config` prints the configuration with every default.
+//!
 //! `robot-host monitor --port /dev/ttyACM0` opens the board's serial port (USB CDC-ACM, the
 //! UART fallback, or a hil-sim pty), keeps the board clock synchronised with time-sync pings,
 //! prints every message as one JSON line on stdout and the link accounting once a second on
@@ -27,8 +32,16 @@ struct Cli {
     command: Command,
 }
 
+mod daemon_cli;
+
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the daemon: read the board, map, record, serve the web view.
+    Run(daemon_cli::RunArgs),
+    /// Replay an MCAP recording through the pipelines and write the outputs.
+    Replay(daemon_cli::ReplayArgs),
+    /// Print the configuration (a file's, with flags applied, or the defaults) as TOML.
+    Config(daemon_cli::ConfigArgs),
     /// Print every message from the board as JSON lines, with link accounting on stderr.
     Monitor(MonitorArgs),
     /// Print a geo-referenced image's size, CRS and WGS84 corners as JSON.
@@ -93,15 +106,26 @@ fn parse_laser_config(s: &str) -> Result<ConfigureLaserCmd, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Monitor(args) => match monitor(&args) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("robot-host: {e}");
-                ExitCode::FAILURE
-            }
-        },
-        Command::GeorefInfo(args) => georef_info::run(&args),
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(io::stderr)
+        .init();
+    let result = match cli.command {
+        Command::GeorefInfo(args) => return georef_info::run(&args),
+        Command::Run(args) => daemon_cli::run(&args),
+        Command::Replay(args) => daemon_cli::replay_file(&args),
+        Command::Config(args) => args.resolve().map(|c| print!("{}", c.to_toml())),
+        Command::Monitor(args) => monitor(&args).map_err(|e| e.to_string()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("robot-host: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
 

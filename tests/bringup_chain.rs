@@ -3,15 +3,15 @@
 //! every scan and the 10 Hz GPS fixes, and the host receives them all; after a power cycle
 //! of the sensor the firmware notices and brings it up again.
 
-use hil_sim::demo::{self, DemoOptions};
+use hil_sim::bringup::{self, BringUpOptions};
 use protocol::LaserState;
 
 #[test]
 fn every_scan_and_fix_reaches_the_host() {
-    let report = demo::run(DemoOptions {
+    let report = bringup::run(BringUpOptions {
         seconds: 7.0,
         progress: false,
-        ..DemoOptions::default()
+        ..BringUpOptions::default()
     })
     .unwrap();
     let laser = &report.laser;
@@ -53,11 +53,11 @@ fn every_scan_and_fix_reaches_the_host() {
 
 #[test]
 fn laser_power_cycle_is_recovered() {
-    let report = demo::run(DemoOptions {
+    let report = bringup::run(BringUpOptions {
         seconds: 14.0,
         laser_restart_s: Some(5.0),
         progress: false,
-        ..DemoOptions::default()
+        ..BringUpOptions::default()
     })
     .unwrap();
     let laser = &report.laser;

@@ -1,0 +1,254 @@
+//! `robot-host run`, `robot-host replay` and `robot-host config`: the daemon from the command
+//! line, with every configuration field overridable by a flag.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use host::daemon::config::{DaemonConfig, SlamMethod};
+use host::daemon::outputs::write_outputs;
+use host::daemon::replay::replay;
+use host::daemon::runner::{Daemon, SerialPortOpener};
+use host::geoimage::GeoImage;
+
+/// Where the configuration comes from and what overrides it.
+#[derive(Debug, clap::Args)]
+pub struct ConfigArgs {
+    /// The TOML configuration file (see `robot-host config` for every field and its default).
+    #[arg(long, short = 'c')]
+    pub config: Option<PathBuf>,
+    /// Serial port of the board [link.port].
+    #[arg(long)]
+    pub port: Option<String>,
+    /// Baud rate of a UART link [link.baud].
+    #[arg(long)]
+    pub baud: Option<u32>,
+    /// Which SLAM pipelines run: ekf, grid, both or none [slam.method].
+    #[arg(long)]
+    pub slam: Option<SlamMethod>,
+    /// The laser's pose on the robot, X_M,Y_M,THETA_RAD [slam.laser_in_robot].
+    #[arg(long, value_parser = parse_triple)]
+    pub laser_in_robot: Option<[f64; 3]>,
+    /// The GPS antenna's position on the robot, X_M,Y_M [slam.antenna_in_robot].
+    #[arg(long, value_parser = parse_pair)]
+    pub antenna_in_robot: Option<[f64; 2]>,
+    /// The EKF uses returns up to this range, metres [slam.ekf_max_range_m].
+    #[arg(long)]
+    pub ekf_max_range_m: Option<f64>,
+    /// Cell size of the occupancy grid, metres [slam.grid_resolution_m].
+    #[arg(long)]
+    pub grid_resolution_m: Option<f64>,
+    /// Address of the web view [web.listen]; 127.0.0.1 unless told otherwise.
+    #[arg(long)]
+    pub serve: Option<SocketAddr>,
+    /// Do not serve the web view [web.enabled = false].
+    #[arg(long)]
+    pub no_web: bool,
+    /// Address of the live Foxglove WebSocket server [web.foxglove_listen].
+    #[arg(long)]
+    pub foxglove: Option<SocketAddr>,
+    /// Do not serve the live Foxglove stream [web.foxglove_listen absent].
+    #[arg(long)]
+    pub no_foxglove: bool,
+    /// Record every frame to this MCAP file [record.path].
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Flush the recording every this many seconds [record.flush_interval_s].
+    #[arg(long)]
+    pub flush_interval_s: Option<f64>,
+    /// Geo-referenced image under the map (GeoTIFF, or PNG/JPEG with a world file)
+    /// [georef.image].
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    /// Origin of the local metric frame, LAT_DEG,LON_DEG [georef.datum_lat_lon_deg].
+    #[arg(long, value_parser = parse_pair)]
+    pub datum: Option<[f64; 2]>,
+    /// Goals farther than this from the map are refused, metres [georef.goal_margin_m].
+    #[arg(long)]
+    pub goal_margin_m: Option<f64>,
+}
+
+impl ConfigArgs {
+    /// The configuration file (or the defaults) with the flags applied, checked.
+    pub fn resolve(&self) -> Result<DaemonConfig, String> {
+        let mut c = match &self.config {
+            Some(path) => DaemonConfig::load(path).map_err(|e| e.to_string())?,
+            None => DaemonConfig::default(),
+        };
+        if let Some(v) = &self.port {
+            c.link.port.clone_from(v);
+        }
+        if let Some(v) = self.baud {
+            c.link.baud = v;
+        }
+        if let Some(v) = self.slam {
+            c.slam.method = v;
+        }
+        if let Some(v) = self.laser_in_robot {
+            c.slam.laser_in_robot = v;
+        }
+        if let Some(v) = self.antenna_in_robot {
+            c.slam.antenna_in_robot = v;
+        }
+        if let Some(v) = self.ekf_max_range_m {
+            c.slam.ekf_max_range_m = v;
+        }
+        if let Some(v) = self.grid_resolution_m {
+            c.slam.grid_resolution_m = v;
+        }
+        if let Some(v) = self.serve {
+            c.web.listen = v;
+        }
+        if self.no_web {
+            c.web.enabled = false;
+        }
+        if let Some(v) = self.foxglove {
+            c.web.foxglove_listen = Some(v);
+        }
+        if self.no_foxglove {
+            c.web.foxglove_listen = None;
+        }
+        if let Some(v) = &self.record {
+            c.record.path = Some(v.clone());
+        }
+        if let Some(v) = self.flush_interval_s {
+            c.record.flush_interval_s = v;
+        }
+        if let Some(v) = &self.image {
+            c.georef.image = Some(v.clone());
+        }
+        if let Some(v) = self.datum {
+            c.georef.datum_lat_lon_deg = Some(v);
+        }
+        if let Some(v) = self.goal_margin_m {
+            c.georef.goal_margin_m = v;
+        }
+        c.validate().map_err(|e| e.to_string())?;
+        Ok(c)
+    }
+}
+
+fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let values: Vec<f64> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s:?}: {e}"))?;
+    values
+        .try_into()
+        .map_err(|_| format!("expected {N} comma-separated numbers, got {s:?}"))
+}
+
+fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+    parse_numbers::<2>(s)
+}
+
+fn parse_triple(s: &str) -> Result<[f64; 3], String> {
+    parse_numbers::<3>(s)
+}
+
+/// `robot-host run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Stop after this many seconds (run until Ctrl-C otherwise).
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Write the trajectory, maps, GeoJSON/KML and a summary here when stopping.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// `robot-host replay`.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The MCAP recording made by `robot-host run --record`.
+    file: PathBuf,
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Write the trajectory, maps, GeoJSON/KML and a summary here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Runs the daemon until Ctrl-C or the duration.
+pub fn run(args: &RunArgs) -> Result<(), String> {
+    let config = args.config.resolve()?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed))
+            .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    }
+    let opener = SerialPortOpener {
+        path: config.link.port.clone(),
+        baud: config.link.baud,
+    };
+    let daemon = Daemon::start(&config, Box::new(opener)).map_err(|e| e.to_string())?;
+    if let Some(addr) = daemon.web_addr() {
+        println!("web view: http://{addr}/");
+    }
+    if let Some(addr) = daemon.foxglove_addr() {
+        println!("foxglove: ws://{addr}");
+    }
+    let started = Instant::now();
+    while !stop.load(Ordering::Relaxed)
+        && args
+            .duration_s
+            .is_none_or(|d| started.elapsed().as_secs_f64() < d)
+    {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let outcome = daemon.stop().map_err(|e| e.to_string())?;
+    if let Some(out) = &args.out {
+        let image = open_image(&config)?;
+        let written = write_outputs(out, &outcome, image.as_ref()).map_err(|e| e.to_string())?;
+        tracing::info!(files = written.files.len(), dir = %out.display(), "outputs written");
+    }
+    println!(
+        "{}",
+        serde_json::to_string(&outcome.state.counters).unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// Replays a recording and writes its outputs.
+pub fn replay_file(args: &ReplayArgs) -> Result<(), String> {
+    let config = args.config.resolve()?;
+    let image = open_image(&config)?;
+    let (outcome, truncated) = replay(&args.file, &config, image.as_ref(), !args.quiet)
+        .map_err(|e| format!("{}: {e}", args.file.display()))?;
+    if truncated {
+        tracing::warn!(file = %args.file.display(), "the recording was cut short; replayed up to its last complete chunk");
+    }
+    if let Some(out) = &args.out {
+        write_outputs(out, &outcome, image.as_ref()).map_err(|e| e.to_string())?;
+    }
+    let pose = outcome.state.pose;
+    println!(
+        "{}",
+        serde_json::json!({
+            "truncated": truncated,
+            "counters": outcome.state.counters,
+            "scans": outcome.ekf.as_ref().map(|e| e.trajectory().len())
+                .or(outcome.grid.as_ref().map(|g| g.trajectory().len())),
+            "final_pose": {"x_m": pose.x_m, "y_m": pose.y_m, "theta_rad": pose.theta_rad},
+        })
+    );
+    Ok(())
+}
+
+fn open_image(config: &DaemonConfig) -> Result<Option<GeoImage>, String> {
+    config
+        .georef
+        .image
+        .as_ref()
+        .map(|p| GeoImage::open(p).map_err(|e| format!("{}: {e}", p.display())))
+        .transpose()
+}

@@ -1,0 +1,354 @@
+//! The daemon's configuration: one TOML file whose every field has a default that works, and
+//! which command-line flags override field by field.
+//!
+//! `host/config/robot-host.toml` is the documented default file; a test checks that it
+//! parses to [`DaemonConfig::default`].
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// Which SLAM pipelines run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SlamMethod {
+    /// EKF SLAM with local maps over trees and corners, geo-referenced by GPS (outdoors).
+    #[default]
+    Ekf,
+    /// Raster scan matching with occupancy-grid submaps and loop closure (indoors).
+    Grid,
+    /// Both; the EKF owns the pose shown, the grid pipeline the occupancy grid.
+    Both,
+    /// None: read, record and show the link only.
+    None,
+}
+
+impl SlamMethod {
+    /// Whether the EKF pipeline runs.
+    pub fn runs_ekf(self) -> bool {
+        matches!(self, SlamMethod::Ekf | SlamMethod::Both)
+    }
+
+    /// Whether the grid pipeline runs.
+    pub fn runs_grid(self) -> bool {
+        matches!(self, SlamMethod::Grid | SlamMethod::Both)
+    }
+}
+
+impl std::str::FromStr for SlamMethod {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "ekf" => Ok(SlamMethod::Ekf),
+            "grid" => Ok(SlamMethod::Grid),
+            "both" => Ok(SlamMethod::Both),
+            "none" => Ok(SlamMethod::None),
+            other => Err(format!(
+                "unknown SLAM method {other:?}: expected ekf, grid, both or none"
+            )),
+        }
+    }
+}
+
+/// The serial link to the board.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LinkConfig {
+    /// The board's serial port: `/dev/ttyACM0` (USB), a UART adapter, or a hil-sim pty.
+    pub port: String,
+    /// Baud rate of a UART link (USB CDC-ACM ignores it).
+    pub baud: u32,
+    /// How often to try to reopen the port after it went away, milliseconds.
+    pub reopen_interval_ms: u64,
+    /// Time-sync pings, one every this many seconds.
+    pub ping_interval_s: f64,
+    /// The laser's measuring mode (configuration byte 5), which says how range words are
+    /// coded; the board configures the factory default 0.
+    pub measuring_mode: u8,
+}
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        LinkConfig {
+            port: "/dev/ttyACM0".into(),
+            baud: 921_600,
+            reopen_interval_ms: 500,
+            ping_interval_s: 1.0,
+            measuring_mode: 0,
+        }
+    }
+}
+
+/// The SLAM pipelines.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SlamConfig {
+    /// Which pipelines run: `ekf`, `grid`, `both` or `none`.
+    pub method: SlamMethod,
+    /// The laser's pose on the robot, `[x_m, y_m, theta_rad]` (x forward, y left).
+    pub laser_in_robot: [f64; 3],
+    /// The GPS antenna's position on the robot, `[x_m, y_m]`.
+    pub antenna_in_robot: [f64; 2],
+    /// The EKF uses laser returns up to this range, metres.
+    pub ekf_max_range_m: f64,
+    /// A local map closes when it holds this many landmarks.
+    pub ekf_landmarks_per_local_map: usize,
+    /// The grid pipeline uses laser returns up to this range, metres.
+    pub grid_max_range_m: f64,
+    /// Cell size of the occupancy grid, metres.
+    pub grid_resolution_m: f64,
+    /// The occupancy grid shown live is redrawn every this many scans.
+    pub grid_redraw_every_scans: u32,
+}
+
+impl Default for SlamConfig {
+    fn default() -> Self {
+        SlamConfig {
+            method: SlamMethod::Ekf,
+            laser_in_robot: [0.0; 3],
+            antenna_in_robot: [0.0; 2],
+            ekf_max_range_m: 40.0,
+            ekf_landmarks_per_local_map: 30,
+            grid_max_range_m: 30.0,
+            grid_resolution_m: 0.05,
+            grid_redraw_every_scans: 50,
+        }
+    }
+}
+
+/// The web view and the live Foxglove stream.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WebConfig {
+    /// Serve the web view and its API.
+    pub enabled: bool,
+    /// Address of the web view. Loopback unless told otherwise.
+    pub listen: SocketAddr,
+    /// Address of the Foxglove WebSocket server; absent: no live Foxglove stream.
+    pub foxglove_listen: Option<SocketAddr>,
+}
+
+impl Default for WebConfig {
+    fn default() -> Self {
+        WebConfig {
+            enabled: true,
+            listen: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            foxglove_listen: Some(SocketAddr::from(([127, 0, 0, 1], 8765))),
+        }
+    }
+}
+
+/// The MCAP recording.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecordConfig {
+    /// Where to record; absent: no recording.
+    pub path: Option<PathBuf>,
+    /// The recording is flushed to disk every this many seconds: a crash loses at most this
+    /// much.
+    pub flush_interval_s: f64,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        RecordConfig {
+            path: None,
+            flush_interval_s: 1.0,
+        }
+    }
+}
+
+/// Geo-referencing and goals.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeorefConfig {
+    /// A geo-referenced image (GeoTIFF, or PNG/JPEG with a world file) to show under the map
+    /// and to click goals on.
+    pub image: Option<PathBuf>,
+    /// The origin of the local metric frame, `[lat_deg, lon_deg]`; absent: the first fix.
+    pub datum_lat_lon_deg: Option<[f64; 2]>,
+    /// A goal farther than this from the built map (its trajectory and landmarks) is refused,
+    /// metres.
+    pub goal_margin_m: f64,
+}
+
+impl Default for GeorefConfig {
+    fn default() -> Self {
+        GeorefConfig {
+            image: None,
+            datum_lat_lon_deg: None,
+            goal_margin_m: 30.0,
+        }
+    }
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DaemonConfig {
+    /// The serial link.
+    pub link: LinkConfig,
+    /// The SLAM pipelines.
+    pub slam: SlamConfig,
+    /// The web view.
+    pub web: WebConfig,
+    /// The recording.
+    pub record: RecordConfig,
+    /// Geo-referencing and goals.
+    pub georef: GeorefConfig,
+}
+
+/// A configuration file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("cannot read the configuration {path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML for this configuration (the message names the line and
+    /// the field).
+    #[error("configuration {path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What and where.
+        message: String,
+    },
+    /// A value out of its range.
+    #[error("configuration: {0}")]
+    Invalid(String),
+}
+
+impl DaemonConfig {
+    /// Reads and checks a configuration file; fields it leaves out keep their defaults.
+    ///
+    /// # Errors
+    /// An unreadable file, invalid TOML, an unknown field, a value out of range.
+    pub fn load(path: &Path) -> Result<DaemonConfig, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let config: DaemonConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Checks the values' ranges.
+    ///
+    /// # Errors
+    /// The first value out of range, named.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ConfigError::Invalid(format!(
+                    "{name} must be a positive number, got {v}"
+                )))
+            }
+        };
+        positive("link.ping_interval_s", self.link.ping_interval_s)?;
+        positive("slam.ekf_max_range_m", self.slam.ekf_max_range_m)?;
+        positive("slam.grid_max_range_m", self.slam.grid_max_range_m)?;
+        positive("slam.grid_resolution_m", self.slam.grid_resolution_m)?;
+        positive("record.flush_interval_s", self.record.flush_interval_s)?;
+        positive("georef.goal_margin_m", self.georef.goal_margin_m)?;
+        if self.link.baud == 0 {
+            return Err(ConfigError::Invalid("link.baud must not be 0".into()));
+        }
+        if self.slam.ekf_landmarks_per_local_map < 2 {
+            return Err(ConfigError::Invalid(
+                "slam.ekf_landmarks_per_local_map must be at least 2".into(),
+            ));
+        }
+        if self.slam.grid_redraw_every_scans == 0 {
+            return Err(ConfigError::Invalid(
+                "slam.grid_redraw_every_scans must be at least 1".into(),
+            ));
+        }
+        if let Some([lat, lon]) = self.georef.datum_lat_lon_deg
+            && !(lat.abs() <= 90.0 && lon.abs() <= 180.0)
+        {
+            return Err(ConfigError::Invalid(format!(
+                "georef.datum_lat_lon_deg must be a latitude within ±90° and a longitude \
+                 within ±180°, got [{lat}, {lon}]"
+            )));
+        }
+        if !self.slam.laser_in_robot.iter().all(|v| v.is_finite())
+            || !self.slam.antenna_in_robot.iter().all(|v| v.is_finite())
+        {
+            return Err(ConfigError::Invalid(
+                "slam.laser_in_robot and slam.antenna_in_robot must be finite".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The configuration as TOML (what `robot-host config` prints).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot print: {e}\n"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DEFAULT_FILE: &str = include_str!("../../config/robot-host.toml");
+
+    #[test]
+    fn the_documented_file_is_the_default() {
+        let parsed: DaemonConfig = toml::from_str(DEFAULT_FILE).expect("the default file parses");
+        assert_eq!(parsed, DaemonConfig::default());
+    }
+
+    #[test]
+    fn printed_config_reads_back() {
+        let mut config = DaemonConfig::default();
+        config.slam.method = SlamMethod::Both;
+        config.record.path = Some("/tmp/run.mcap".into());
+        let again: DaemonConfig = toml::from_str(&config.to_toml()).expect("reads back");
+        assert_eq!(again, config);
+    }
+
+    #[test]
+    fn missing_fields_keep_defaults_and_unknown_fields_are_named() {
+        let partial: DaemonConfig =
+            toml::from_str("[link]\nport = \"/dev/ttyUSB0\"\n").expect("partial file");
+        assert_eq!(partial.link.port, "/dev/ttyUSB0");
+        assert_eq!(partial.link.baud, 921_600);
+        let err = toml::from_str::<DaemonConfig>("[link]\nprot = \"x\"\n")
+            .expect_err("unknown field")
+            .to_string();
+        assert!(err.contains("prot"), "{err}");
+    }
+
+    #[test]
+    fn out_of_range_values_are_refused_with_their_name() {
+        let mut config = DaemonConfig::default();
+        config.slam.grid_resolution_m = 0.0;
+        let err = config.validate().expect_err("refused").to_string();
+        assert!(err.contains("slam.grid_resolution_m"), "{err}");
+        let mut config = DaemonConfig::default();
+        config.georef.datum_lat_lon_deg = Some([95.0, 0.0]);
+        assert!(config.validate().is_err());
+    }
+
+    #[test]
+    fn a_missing_file_is_named() {
+        let err = DaemonConfig::load(Path::new("/nonexistent/robot-host.toml"))
+            .expect_err("missing")
+            .to_string();
+        assert!(err.contains("/nonexistent/robot-host.toml"), "{err}");
+    }
+}

@@ -1,0 +1,302 @@
+//! One board link as the daemon sees it: bytes in, sensor events out, with the clock mapping
+//! and the counters. The live reader and the replay of a recording drive the same session,
+//! so a replay decodes, times and counts exactly what the live run did.
+
+use std::sync::Arc;
+
+use protocol::{
+    Decoder, Encoder, FixQuality, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, Received,
+    StatusMsg,
+};
+
+use super::state::LinkCounters;
+use crate::link::{LaserScan, LinkReader, TimeSync};
+
+/// A sensor reading for the SLAM pipelines, in SI units and host time.
+#[derive(Debug, Clone)]
+pub enum SensorEvent {
+    /// One laser scan.
+    Scan {
+        /// Host time of the scan's first byte, seconds.
+        host_time_s: f64,
+        /// Board time of the scan's first byte, seconds since the board started: what the
+        /// pipelines take time differences of (it does not depend on when the host read it).
+        board_time_s: f64,
+        /// The board's scan counter.
+        scan_counter: u32,
+        /// The ranges in the sensor frame.
+        scan: Arc<LaserScan>,
+    },
+    /// One GPS fix.
+    Fix {
+        /// Host time of the fix's first byte, seconds.
+        host_time_s: f64,
+        /// Board time, seconds since the board started.
+        board_time_s: f64,
+        /// The fix as the board parsed it.
+        fix: GpsFixMsg,
+    },
+}
+
+impl SensorEvent {
+    /// The event's board time, seconds.
+    pub fn board_time_s(&self) -> f64 {
+        match self {
+            SensorEvent::Scan { board_time_s, .. } | SensorEvent::Fix { board_time_s, .. } => {
+                *board_time_s
+            }
+        }
+    }
+
+    /// The event's host time, seconds.
+    pub fn host_time_s(&self) -> f64 {
+        match self {
+            SensorEvent::Scan { host_time_s, .. } | SensorEvent::Fix { host_time_s, .. } => {
+                *host_time_s
+            }
+        }
+    }
+}
+
+/// What one read of bytes gave.
+#[derive(Debug, Default)]
+pub struct Decoded {
+    /// Every message decoded, for the recording, with its host time when the clock is
+    /// synchronised.
+    pub messages: Vec<(Received, Option<f64>)>,
+    /// The sensor readings among them.
+    pub events: Vec<SensorEvent>,
+}
+
+/// The decoding side of one board link. See the [module documentation](self).
+#[derive(Debug)]
+pub struct LinkSession {
+    reader: LinkReader,
+    sync: TimeSync,
+    encoder: Encoder,
+    mode: MeasuringMode,
+    counters: LinkCounters,
+    last_status: Option<StatusMsg>,
+}
+
+impl LinkSession {
+    /// A session for a laser whose range words are coded in measuring `mode`.
+    pub fn new(mode: MeasuringMode) -> LinkSession {
+        LinkSession {
+            reader: LinkReader::new(),
+            sync: TimeSync::new(),
+            encoder: Encoder::new(),
+            mode,
+            counters: LinkCounters::default(),
+            last_status: None,
+        }
+    }
+
+    /// Feeds bytes read at host time `recv_s`.
+    pub fn feed(&mut self, bytes: &[u8], recv_s: f64) -> Decoded {
+        let mut decoded = Decoded::default();
+        for received in self.reader.feed(bytes) {
+            self.sync.observe(&received.message, recv_s);
+            let clock = self.sync.clock();
+            let host_time = |stamp_us: u64| {
+                if clock.is_synchronised() {
+                    clock.to_host_s(stamp_us)
+                } else {
+                    recv_s
+                }
+            };
+            match &received.message {
+                Message::Scan(msg) => {
+                    self.counters.telegrams += 1;
+                    decoded.events.push(SensorEvent::Scan {
+                        host_time_s: host_time(msg.stamp_us),
+                        board_time_s: msg.stamp_us as f64 * 1e-6,
+                        scan_counter: msg.scan_counter,
+                        scan: Arc::new(LaserScan::from_msg(msg, self.mode)),
+                    });
+                }
+                Message::GpsFix(fix) => {
+                    self.counters.gps_fixes += 1;
+                    self.counters.gps_fix_quality = fix_quality_digit(fix.quality);
+                    self.counters.gps_satellites = fix.num_sats.unwrap_or(0);
+                    decoded.events.push(SensorEvent::Fix {
+                        host_time_s: host_time(fix.stamp_us),
+                        board_time_s: fix.stamp_us as f64 * 1e-6,
+                        fix: *fix,
+                    });
+                }
+                Message::Status(status) => {
+                    self.counters.telegram_crc_errors = u64::from(status.laser.crc_errors);
+                    self.last_status = Some(*status);
+                }
+                _ => {}
+            }
+            let stamp = message_stamp_us(&received.message)
+                .filter(|_| clock.is_synchronised())
+                .map(|us| clock.to_host_s(us));
+            decoded.messages.push((received, stamp));
+        }
+        let stats = self.reader.stats();
+        self.counters.frames = stats.frames;
+        self.counters.frames_lost = stats.lost;
+        self.counters.crc_errors = stats.crc_errors;
+        self.counters.clock_synchronised = self.sync.clock().is_synchronised();
+        decoded
+    }
+
+    /// The time-sync ping to send at host time `now_s`, encoded as a frame.
+    pub fn ping(&mut self, now_s: f64) -> Vec<u8> {
+        let ping = self.sync.ping(self.encoder.next_seq(), now_s);
+        self.encode(&ping)
+    }
+
+    /// Encodes a command to the board as a frame.
+    pub fn encode(&mut self, message: &Message) -> Vec<u8> {
+        let mut out = [0u8; MAX_WIRE_LEN];
+        match self.encoder.encode(message, &mut out) {
+            Ok(frame) => frame.to_vec(),
+            // Commands are small and fixed: a failure is a bug in the command, not input.
+            Err(_) => Vec::new(),
+        }
+    }
+
+    /// Registers frames this host sent at `sent_s`, read back from a recording: a replayed
+    /// session matches the board's acknowledgements to the same pings as the live one.
+    pub fn replay_sent(&mut self, frames: &[u8], sent_s: f64) {
+        let mut decoder = Decoder::new();
+        for &b in frames {
+            if let Some(Ok(received)) = decoder.push(b)
+                && matches!(received.message, Message::TimeSyncPing(_))
+            {
+                self.sync.ping(received.header.seq, sent_s);
+            }
+        }
+    }
+
+    /// Forgets a partial frame after the port was reopened; counts the reconnect.
+    pub fn reconnected(&mut self) {
+        self.reader.reconnected();
+        self.counters.reconnects += 1;
+    }
+
+    /// The counters so far.
+    pub fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// The board's last status report.
+    pub fn last_status(&self) -> Option<&StatusMsg> {
+        self.last_status.as_ref()
+    }
+
+    /// The link reader's full accounting.
+    pub fn link_stats(&self) -> crate::link::LinkStats {
+        self.reader.stats()
+    }
+}
+
+/// The fix quality as the GGA digit.
+fn fix_quality_digit(quality: FixQuality) -> u8 {
+    quality.gga_digit()
+}
+
+/// The board time a message carries, µs.
+fn message_stamp_us(message: &Message) -> Option<u64> {
+    match message {
+        Message::Scan(s) => Some(s.stamp_us),
+        Message::GpsFix(f) => Some(f.stamp_us),
+        Message::Nmea(n) => Some(n.stamp_us),
+        Message::Pps(p) => Some(p.edge_us),
+        Message::Heartbeat(h) => Some(h.uptime_us),
+        Message::Status(s) => Some(s.uptime_us),
+        Message::Log(l) => Some(l.stamp_us),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use protocol::{HeartbeatMsg, RangeUnit, ScanMsg};
+
+    use super::*;
+
+    /// Frames as the board sends them.
+    fn board_frames(messages: &[Message]) -> Vec<u8> {
+        let mut encoder = Encoder::new();
+        let mut bytes = Vec::new();
+        for m in messages {
+            let mut out = [0u8; MAX_WIRE_LEN];
+            bytes.extend_from_slice(encoder.encode(m, &mut out).expect("encodes"));
+        }
+        bytes
+    }
+
+    fn scan(stamp_us: u64, counter: u32) -> Message {
+        Message::Scan(ScanMsg {
+            stamp_us,
+            scan_counter: counter,
+            start_angle_cdeg: 0,
+            step_angle_cdeg: 100,
+            unit: RangeUnit::Cm,
+            count_word: 181,
+            values: (0..181).map(|_| 500u16).collect(),
+            status: 0,
+            sensor_indices: None,
+        })
+    }
+
+    #[test]
+    fn scans_become_events_in_metres_with_board_time() {
+        let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+        let bytes = board_frames(&[scan(1_000_000, 1), scan(1_013_333, 2)]);
+        let decoded = session.feed(&bytes, 5.0);
+        assert_eq!(decoded.events.len(), 2);
+        assert_eq!(decoded.messages.len(), 2);
+        let SensorEvent::Scan {
+            board_time_s, scan, ..
+        } = &decoded.events[1]
+        else {
+            panic!("a scan")
+        };
+        assert!((board_time_s - 1.013_333).abs() < 1e-9);
+        assert_eq!(scan.ranges_m[0], 5.0);
+        assert_eq!(session.counters().telegrams, 2);
+        assert_eq!(session.counters().frames, 2);
+    }
+
+    #[test]
+    fn a_damaged_frame_is_counted_and_the_rest_still_decode() {
+        let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+        let mut bytes = board_frames(&[scan(1, 1), scan(2, 2), scan(3, 3)]);
+        let one = bytes.len() / 3;
+        bytes[one + 10] ^= 0x55;
+        let decoded = session.feed(&bytes, 0.0);
+        assert_eq!(decoded.events.len(), 2);
+        let counters = session.counters();
+        assert_eq!(
+            counters.crc_errors + counters.frames_lost,
+            2,
+            "{counters:?}"
+        );
+    }
+
+    #[test]
+    fn heartbeats_synchronise_the_clock_and_replayed_pings_match_acks() {
+        let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+        let beats: Vec<Message> = (0..5)
+            .map(|i| {
+                Message::Heartbeat(HeartbeatMsg {
+                    uptime_us: 1_000_000 * i,
+                })
+            })
+            .collect();
+        for (i, beat) in beats.iter().enumerate() {
+            session.feed(&board_frames(std::slice::from_ref(beat)), 10.0 + i as f64);
+        }
+        let ping = session.ping(20.0);
+        assert!(!ping.is_empty());
+        let mut replayed = LinkSession::new(MeasuringMode::DEFAULT);
+        replayed.replay_sent(&ping, 20.0);
+        assert_eq!(replayed.sync.pending_pings(), 1);
+    }
+}

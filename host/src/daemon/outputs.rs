@@ -1,0 +1,268 @@
+//! What a run leaves in its output folder: the trajectory, the map as a PNG, the map drawn
+//! over the geo-referenced image, the map and trajectory in WGS84 (GeoJSON, KML), and a
+//! summary.
+
+use std::fs::{self, File};
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
+
+use super::runner::RunOutcome;
+use crate::geoimage::GeoImage;
+use crate::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
+
+/// Pixels per metre of the landmark map drawing.
+const LANDMARK_MAP_PX_PER_M: f32 = 5.0;
+/// The landmark map drawing is at most this wide or high, pixels.
+const MAX_DRAWING_PX: f32 = 3000.0;
+
+/// An output that cannot be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {path}: {message}")]
+pub struct OutputError {
+    /// The file.
+    pub path: PathBuf,
+    /// Why.
+    pub message: String,
+}
+
+fn output_error(path: &Path) -> impl Fn(String) -> OutputError + '_ {
+    move |message| OutputError {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+/// The files written, by name.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct WrittenOutputs {
+    /// Paths written, in order.
+    pub files: Vec<PathBuf>,
+}
+
+/// Writes the outputs of `outcome` into `dir`; the map over `image` when there is one and the
+/// map is geo-referenced.
+///
+/// # Errors
+/// A file that cannot be written, named.
+pub fn write_outputs(
+    dir: &Path,
+    outcome: &RunOutcome,
+    image: Option<&GeoImage>,
+) -> Result<WrittenOutputs, OutputError> {
+    fs::create_dir_all(dir).map_err(|e| output_error(dir)(e.to_string()))?;
+    let mut written = WrittenOutputs::default();
+    let trajectory = trajectory_rows(outcome);
+
+    let path = dir.join("trajectory.tsv");
+    write_trajectory(&path, &trajectory).map_err(|e| output_error(&path)(e.to_string()))?;
+    written.files.push(path);
+
+    let path = dir.join("map.png");
+    if let Some(grid) = &outcome.grid {
+        let export = grid.render();
+        export
+            .save_png(&path)
+            .map_err(|e| output_error(&path)(e.to_string()))?;
+        written.files.push(path);
+        let yaml = dir.join("map.yaml");
+        export
+            .save_ros_map(&yaml)
+            .map_err(|e| output_error(&yaml)(e.to_string()))?;
+        written.files.push(dir.join("map.pgm"));
+        written.files.push(yaml);
+    } else if let Some(ekf) = &outcome.ekf {
+        let points: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1[0], r.1[1]]).collect();
+        let drawing = draw_landmark_map(&points, &ekf.landmarks_in_map());
+        drawing
+            .save_png(&path)
+            .map_err(|e| output_error(&path)(e.to_string()))?;
+        written.files.push(path);
+    }
+
+    if let Some(ekf) = outcome.ekf.as_ref().filter(|e| e.is_geo_referenced())
+        && let Some(frame) = ekf.frame()
+    {
+        let track: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1[0], r.1[1]]).collect();
+        let landmarks: Vec<LandmarkInEnu> = ekf
+            .landmarks_in_map()
+            .into_iter()
+            .enumerate()
+            .map(|(id, p)| LandmarkInEnu {
+                id: Some(id as u64),
+                position_in_enu_m: p,
+                diameter_m: None,
+            })
+            .collect();
+        let path = dir.join("map.geojson");
+        let file = File::create(&path).map_err(|e| output_error(&path)(e.to_string()))?;
+        write_geojson(BufWriter::new(file), frame, &track, &landmarks)
+            .map_err(|e| output_error(&path)(e.to_string()))?;
+        written.files.push(path);
+        let path = dir.join("map.kml");
+        let file = File::create(&path).map_err(|e| output_error(&path)(e.to_string()))?;
+        write_kml(BufWriter::new(file), frame, &track, &landmarks)
+            .map_err(|e| output_error(&path)(e.to_string()))?;
+        written.files.push(path);
+        if let Some(image) = image {
+            let path = dir.join("map_over_image.png");
+            let drawing = draw_over_image(image, frame, &track, &ekf.landmarks_in_map())
+                .map_err(output_error(&path))?;
+            drawing
+                .save_png(&path)
+                .map_err(|e| output_error(&path)(e.to_string()))?;
+            written.files.push(path);
+        }
+    }
+
+    let path = dir.join("summary.json");
+    let summary = json!({
+        "scans": trajectory.len(),
+        "counters": outcome.state.counters,
+        "ekf": outcome.ekf.as_ref().map(|e| e.stats()),
+        "grid": outcome.grid.as_ref().map(|g| g.stats()),
+        "geo_referenced": outcome.ekf.as_ref().is_some_and(|e| e.is_geo_referenced()),
+        "landmarks": outcome.ekf.as_ref().map_or(0, |e| e.landmarks_in_map().len()),
+        "recording": outcome.recording,
+        "final_pose": outcome.state.pose,
+    });
+    fs::write(
+        &path,
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
+    )
+    .map_err(|e| output_error(&path)(e.to_string()))?;
+    written.files.push(path);
+    Ok(written)
+}
+
+/// `(host_time_s, [x_m, y_m, theta_rad])` per scan from the pipeline that owns the pose.
+fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, [f64; 3])> {
+    if let Some(ekf) = &outcome.ekf {
+        return ekf
+            .trajectory()
+            .iter()
+            .map(|p| (p.time_s, p.pose_in_map))
+            .collect();
+    }
+    outcome.grid.as_ref().map_or_else(Vec::new, |grid| {
+        grid.trajectory()
+            .into_iter()
+            .map(|(t, p)| (t, [p.x_m, p.y_m, p.theta_rad]))
+            .collect()
+    })
+}
+
+fn write_trajectory(path: &Path, rows: &[(f64, [f64; 3])]) -> io::Result<()> {
+    let mut w = BufWriter::new(File::create(path)?);
+    writeln!(w, "# host_time_s\tx_m\ty_m\ttheta_rad")?;
+    for (t, p) in rows {
+        writeln!(w, "{t:.6}\t{:.4}\t{:.4}\t{:.5}", p[0], p[1], p[2])?;
+    }
+    w.flush()
+}
+
+/// The landmark map and trajectory, north up, on white.
+pub fn draw_landmark_map(trajectory_m: &[[f64; 2]], landmarks_m: &[[f64; 2]]) -> Pixmap {
+    let all = trajectory_m.iter().chain(landmarks_m);
+    let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in all {
+        for k in 0..2 {
+            min[k] = min[k].min(p[k]);
+            max[k] = max[k].max(p[k]);
+        }
+    }
+    if !min[0].is_finite() {
+        min = [-10.0; 2];
+        max = [10.0; 2];
+    }
+    let margin_m = 5.0;
+    let span = [
+        max[0] - min[0] + 2.0 * margin_m,
+        max[1] - min[1] + 2.0 * margin_m,
+    ];
+    let scale = LANDMARK_MAP_PX_PER_M.min(MAX_DRAWING_PX / span[0].max(span[1]) as f32);
+    let width = ((span[0] as f32 * scale).ceil() as u32).max(1);
+    let height = ((span[1] as f32 * scale).ceil() as u32).max(1);
+    let mut pixmap = Pixmap::new(width, height).unwrap_or_else(|| {
+        // Width and height are at least 1 and bounded, so this is not reached.
+        Pixmap::new(1, 1).unwrap_or_else(|| unreachable!())
+    });
+    pixmap.fill(Color::WHITE);
+    let to_px = |p: &[f64; 2]| {
+        (
+            ((p[0] - min[0] + margin_m) as f32) * scale,
+            ((max[1] + margin_m - p[1]) as f32) * scale,
+        )
+    };
+    let trajectory_px: Vec<(f32, f32)> = trajectory_m.iter().map(to_px).collect();
+    let landmarks_px: Vec<(f32, f32)> = landmarks_m.iter().map(to_px).collect();
+    draw_track_and_landmarks(&mut pixmap, &trajectory_px, &landmarks_px);
+    pixmap
+}
+
+/// The map and trajectory (map frame = the local metric frame at the datum) drawn over the
+/// geo-referenced image.
+///
+/// # Errors
+/// The image's pixels cannot be decoded.
+pub fn draw_over_image(
+    image: &GeoImage,
+    frame: &LocalFrame,
+    trajectory_m: &[[f64; 2]],
+    landmarks_m: &[[f64; 2]],
+) -> Result<Pixmap, String> {
+    let rgba = image.to_rgba8().map_err(|e| e.to_string())?;
+    let size = tiny_skia::IntSize::from_wh(image.width(), image.height())
+        .ok_or_else(|| "the image is empty".to_string())?;
+    let mut pixmap =
+        Pixmap::from_vec(rgba, size).ok_or_else(|| "the image's pixels do not fit".to_string())?;
+    let to_px = |p: &[f64; 2]| -> Option<(f32, f32)> {
+        let [lon, lat] = frame.to_lon_lat_deg(*p).ok()?;
+        let [col, row] = image.wgs84_to_pixel(lon, lat).ok()?;
+        Some((col as f32, row as f32))
+    };
+    let trajectory_px: Vec<(f32, f32)> = trajectory_m.iter().filter_map(to_px).collect();
+    let landmarks_px: Vec<(f32, f32)> = landmarks_m.iter().filter_map(to_px).collect();
+    draw_track_and_landmarks(&mut pixmap, &trajectory_px, &landmarks_px);
+    Ok(pixmap)
+}
+
+fn draw_track_and_landmarks(
+    pixmap: &mut Pixmap,
+    trajectory: &[(f32, f32)],
+    landmarks: &[(f32, f32)],
+) {
+    let mut paint = Paint {
+        anti_alias: true,
+        ..Paint::default()
+    };
+    if trajectory.len() >= 2 {
+        let mut path = PathBuilder::new();
+        path.move_to(trajectory[0].0, trajectory[0].1);
+        for &(x, y) in &trajectory[1..] {
+            path.line_to(x, y);
+        }
+        if let Some(path) = path.finish() {
+            paint.set_color_rgba8(30, 90, 220, 255);
+            let stroke = Stroke {
+                width: 2.0,
+                ..Stroke::default()
+            };
+            pixmap.stroke_path(&path, &paint, &stroke, Transform::identity(), None);
+        }
+    }
+    paint.set_color_rgba8(230, 40, 40, 255);
+    for &(x, y) in landmarks {
+        if let Some(circle) = PathBuilder::from_circle(x, y, 3.0) {
+            pixmap.fill_path(
+                &circle,
+                &paint,
+                FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
+        }
+    }
+}

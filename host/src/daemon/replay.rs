@@ -1,0 +1,94 @@
+//! Replaying a recording: the bytes the daemon read, in order, through the same link session
+//! and pipelines, one after the other on this thread. The pipelines take their time steps
+//! from the board's stamps, so the estimates are those of the live run, and the same file
+//! always gives the same bytes out.
+
+use std::path::Path;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use protocol::MeasuringMode;
+
+use super::config::DaemonConfig;
+use super::ekf_pipeline::EkfPipeline;
+use super::grid_pipeline::GridPipeline;
+use super::link_session::LinkSession;
+use super::publish::{publish_ekf, publish_grid};
+use super::runner::RunOutcome;
+use super::state::LiveState;
+use crate::geoimage::GeoImage;
+use crate::recording::{LinkDirection, RecordingError, read_recording};
+
+/// Replays `path` with the pipelines `config` selects; `progress` shows a progress bar on
+/// stderr.
+///
+/// # Errors
+/// The file is not a readable recording.
+pub fn replay(
+    path: &Path,
+    config: &DaemonConfig,
+    image: Option<&GeoImage>,
+    progress: bool,
+) -> Result<(RunOutcome, bool), RecordingError> {
+    let recording = read_recording(path)?;
+    let mut session = LinkSession::new(MeasuringMode(config.link.measuring_mode));
+    let mut ekf = config
+        .slam
+        .method
+        .runs_ekf()
+        .then(|| EkfPipeline::new(&config.slam, config.georef.datum_lat_lon_deg));
+    let mut grid = config
+        .slam
+        .method
+        .runs_grid()
+        .then(|| GridPipeline::new(&config.slam));
+    let bar = if progress {
+        let bar = ProgressBar::new(recording.link.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} replay {bar:40} {pos}/{len} reads, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    for record in &recording.link {
+        match record.direction {
+            LinkDirection::FromBoard => {
+                let decoded = session.feed(&record.bytes, record.time_s);
+                for event in &decoded.events {
+                    if let Some(ekf) = ekf.as_mut() {
+                        ekf.on_event(event);
+                    }
+                    if let Some(grid) = grid.as_mut() {
+                        grid.on_event(event);
+                    }
+                }
+            }
+            LinkDirection::ToBoard => session.replay_sent(&record.bytes, record.time_s),
+            LinkDirection::Reconnect => session.reconnected(),
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let mut state = LiveState {
+        counters: session.counters(),
+        ..LiveState::default()
+    };
+    if let Some(grid) = &grid {
+        publish_grid(&mut state, grid, ekf.is_none());
+    }
+    if let Some(ekf) = &ekf {
+        publish_ekf(&mut state, ekf, image);
+    }
+    Ok((
+        RunOutcome {
+            ekf,
+            grid,
+            state,
+            recording: None,
+        },
+        recording.truncated,
+    ))
+}

@@ -1,0 +1,535 @@
+//! The running daemon: the reader thread on the serial port, one thread per SLAM pipeline,
+//! the recorder thread, the web view and the live Foxglove stream.
+//!
+//! ```text
+//! port ──▶ reader ──events──▶ ekf thread  ──▶ LiveState ◀── web view, goal API
+//!             │    ──events──▶ grid thread ──▶ LiveState ◀── Foxglove publisher
+//!             └──bytes, messages, pings──▶ recorder ──▶ MCAP
+//! ```
+//!
+//! The reader never waits for the pipelines or the disk: it hands each event over an
+//! unbounded channel and goes back to the port. The pipelines see every event in the order it
+//! was read, so their estimates do not depend on thread timing, and a replay of the recording
+//! through the same [`LinkSession`] and pipelines gives the same results.
+
+use std::io::{self, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, RwLock};
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant};
+
+use protocol::{MeasuringMode, Received};
+
+use super::config::DaemonConfig;
+use super::ekf_pipeline::EkfPipeline;
+use super::foxglove_live::start_live_server;
+use super::grid_pipeline::GridPipeline;
+use super::link_session::{LinkSession, SensorEvent};
+use super::publish::{publish_ekf, publish_grid, publish_grid_pose};
+use super::state::{LiveState, SharedState};
+use crate::geoimage::GeoImage;
+use crate::recording::{Recorder, RecorderOptions, RecordingError, RecordingSummary};
+
+/// How long a read on the port waits before the reader checks for shutdown and pings.
+const READ_TIMEOUT: Duration = Duration::from_millis(50);
+/// The EKF thread refreshes the shown map every this many scans (the pose every scan).
+const EKF_PUBLISH_EVERY_SCANS: u64 = 10;
+/// The Foxglove stream is refreshed this often.
+const LIVE_PUBLISH_PERIOD: Duration = Duration::from_millis(200);
+
+/// Opens the board's port, again after it went away.
+pub trait PortOpener: Send {
+    /// Opens the port.
+    ///
+    /// # Errors
+    /// The port does not exist (yet) or cannot be opened.
+    fn open(&mut self) -> io::Result<Box<dyn serialport::SerialPort>>;
+
+    /// The port's name, for messages.
+    fn name(&self) -> String;
+}
+
+/// A serial port by path: a USB CDC-ACM device, a UART adapter, a pty.
+#[derive(Debug, Clone)]
+pub struct SerialPortOpener {
+    /// The device path.
+    pub path: String,
+    /// The baud rate (ignored by USB CDC-ACM and ptys).
+    pub baud: u32,
+}
+
+impl PortOpener for SerialPortOpener {
+    fn open(&mut self) -> io::Result<Box<dyn serialport::SerialPort>> {
+        serialport::new(&self.path, self.baud)
+            .timeout(READ_TIMEOUT)
+            .open()
+            .map_err(|e| io::Error::other(format!("cannot open {}: {e}", self.path)))
+    }
+
+    fn name(&self) -> String {
+        self.path.clone()
+    }
+}
+
+/// Why the daemon cannot start or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    /// The port cannot be opened at start.
+    #[error("{0}")]
+    Port(io::Error),
+    /// The recording cannot be created or written.
+    #[error("recording: {0}")]
+    Recording(#[from] RecordingError),
+    /// The geo-referenced image cannot be read.
+    #[error("image {path}: {message}")]
+    Image {
+        /// The image.
+        path: String,
+        /// Why.
+        message: String,
+    },
+    /// The web view or the Foxglove server cannot bind.
+    #[error("{0}")]
+    Serve(String),
+    /// A thread of the daemon panicked.
+    #[error("the {0} thread stopped unexpectedly")]
+    Thread(&'static str),
+}
+
+/// What the recorder thread is given.
+enum RecordItem {
+    Bytes(f64, Vec<u8>),
+    Sent(f64, Vec<u8>),
+    Reconnect(f64),
+    Message(f64, Option<f64>, Box<Received>),
+}
+
+/// What a finished run leaves: the pipelines with their estimates and the link's accounting.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// The EKF pipeline, when it ran.
+    pub ekf: Option<EkfPipeline>,
+    /// The grid pipeline, when it ran.
+    pub grid: Option<GridPipeline>,
+    /// The live state at the end.
+    pub state: LiveState,
+    /// The recording's totals, when recording.
+    pub recording: Option<RecordingSummary>,
+}
+
+/// A running daemon. See the [module documentation](self).
+pub struct Daemon {
+    state: SharedState,
+    shutdown: Arc<AtomicBool>,
+    reader: JoinHandle<()>,
+    ekf: Option<JoinHandle<EkfPipeline>>,
+    grid: Option<JoinHandle<GridPipeline>>,
+    recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
+    live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
+    web: Option<super::web::WebServer>,
+}
+
+impl Daemon {
+    /// Starts every thread: opens the port (waiting for it if it is not there yet), the
+    /// recording, the web view and the Foxglove server as configured.
+    ///
+    /// # Errors
+    /// The recording or the image cannot be opened, a server cannot bind.
+    pub fn start(
+        config: &DaemonConfig,
+        opener: Box<dyn PortOpener>,
+    ) -> Result<Daemon, DaemonError> {
+        let state = LiveState::shared();
+        let shutdown = Arc::new(AtomicBool::new(false));
+        let image = load_image(config)?;
+        if let (Some(image), Ok(mut s)) = (&image, state.write()) {
+            s.image = Some(super::state::ImageView {
+                width: image.width(),
+                height: image.height(),
+                crs: image
+                    .crs()
+                    .map_or_else(|| "none".into(), |c| c.name.clone()),
+            });
+        }
+
+        let recorder = match &config.record.path {
+            Some(path) => Some(Recorder::create(
+                path,
+                RecorderOptions {
+                    flush_interval_s: config.record.flush_interval_s,
+                    ..RecorderOptions::default()
+                },
+            )?),
+            None => None,
+        };
+        let (record_tx, recorder) = match recorder {
+            Some(recorder) => {
+                let (tx, rx) = mpsc::channel();
+                let flush = Duration::from_secs_f64(config.record.flush_interval_s);
+                let handle = thread::Builder::new()
+                    .name("recorder".into())
+                    .spawn(move || record(recorder, &rx, flush))
+                    .map_err(|e| DaemonError::Serve(e.to_string()))?;
+                (Some(tx), Some(handle))
+            }
+            None => (None, None),
+        };
+
+        let mut event_txs = Vec::new();
+        let ekf = if config.slam.method.runs_ekf() {
+            let (tx, rx) = mpsc::channel();
+            event_txs.push(tx);
+            let pipeline = EkfPipeline::new(&config.slam, config.georef.datum_lat_lon_deg);
+            let state = state.clone();
+            let image = image.clone();
+            Some(spawn("ekf", move || {
+                run_ekf(pipeline, &rx, &state, image.as_deref())
+            })?)
+        } else {
+            None
+        };
+        let grid = if config.slam.method.runs_grid() {
+            let (tx, rx) = mpsc::channel();
+            event_txs.push(tx);
+            let pipeline = GridPipeline::new(&config.slam);
+            let state = state.clone();
+            let owns_pose = !config.slam.method.runs_ekf();
+            let every = config.slam.grid_redraw_every_scans;
+            Some(spawn("grid", move || {
+                run_grid(pipeline, &rx, &state, owns_pose, every)
+            })?)
+        } else {
+            None
+        };
+
+        let reader = {
+            let state = state.clone();
+            let shutdown = shutdown.clone();
+            let link = config.link.clone();
+            spawn("reader", move || {
+                read_port(
+                    opener,
+                    &link,
+                    &state,
+                    &shutdown,
+                    &event_txs,
+                    record_tx.as_ref(),
+                );
+            })?
+        };
+
+        let live = match config.web.foxglove_listen {
+            Some(addr) => {
+                let server = start_live_server(addr, "robot-host")
+                    .map_err(|e| DaemonError::Serve(format!("Foxglove server on {addr}: {e}")))?;
+                let bound = server.local_addr();
+                let state = state.clone();
+                let shutdown = shutdown.clone();
+                let handle = spawn("foxglove", move || {
+                    while !shutdown.load(Ordering::Relaxed) {
+                        if let Ok(s) = state.read() {
+                            server.publish_state(&s);
+                        }
+                        thread::sleep(LIVE_PUBLISH_PERIOD);
+                    }
+                    server.stop();
+                })?;
+                Some((handle, bound))
+            }
+            None => None,
+        };
+
+        let web = if config.web.enabled {
+            let resolver = super::goal::MapGoalResolver::new(
+                state.clone(),
+                image.clone(),
+                config.georef.goal_margin_m,
+            );
+            let image_png = match &image {
+                Some(image) => {
+                    Some(Arc::new(image.to_png().map_err(|e| {
+                        DaemonError::Serve(format!("cannot show the image: {e}"))
+                    })?))
+                }
+                None => None,
+            };
+            Some(
+                super::web::WebServer::start(
+                    config.web.listen,
+                    super::web::WebContext {
+                        state: state.clone(),
+                        goal: Arc::new(resolver),
+                        image_png,
+                    },
+                )
+                .map_err(|e| {
+                    DaemonError::Serve(format!("web view on {}: {e}", config.web.listen))
+                })?,
+            )
+        } else {
+            None
+        };
+
+        Ok(Daemon {
+            state,
+            shutdown,
+            reader,
+            ekf,
+            grid,
+            recorder,
+            live,
+            web,
+        })
+    }
+
+    /// The live state.
+    pub fn state(&self) -> SharedState {
+        self.state.clone()
+    }
+
+    /// Where the web view listens, when it runs.
+    pub fn web_addr(&self) -> Option<std::net::SocketAddr> {
+        self.web.as_ref().map(super::web::WebServer::local_addr)
+    }
+
+    /// Where the Foxglove server listens, when it runs.
+    pub fn foxglove_addr(&self) -> Option<std::net::SocketAddr> {
+        self.live.as_ref().map(|(_, addr)| *addr)
+    }
+
+    /// Stops reading, lets the pipelines finish what was read, closes the recording and the
+    /// servers.
+    ///
+    /// # Errors
+    /// The recording cannot be finished, or a thread panicked.
+    pub fn stop(self) -> Result<RunOutcome, DaemonError> {
+        self.shutdown.store(true, Ordering::Relaxed);
+        self.reader
+            .join()
+            .map_err(|_| DaemonError::Thread("reader"))?;
+        let ekf = self
+            .ekf
+            .map(|h| h.join().map_err(|_| DaemonError::Thread("ekf")))
+            .transpose()?;
+        let grid = self
+            .grid
+            .map(|h| h.join().map_err(|_| DaemonError::Thread("grid")))
+            .transpose()?;
+        let recording = self
+            .recorder
+            .map(|h| h.join().map_err(|_| DaemonError::Thread("recorder")))
+            .transpose()?
+            .transpose()?;
+        if let Some((handle, _)) = self.live {
+            let _ = handle.join();
+        }
+        if let Some(web) = self.web {
+            web.stop();
+        }
+        let state = self.state.read().map(|s| s.clone()).unwrap_or_default();
+        Ok(RunOutcome {
+            ekf,
+            grid,
+            state,
+            recording,
+        })
+    }
+}
+
+fn spawn<T: Send + 'static>(
+    name: &'static str,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> Result<JoinHandle<T>, DaemonError> {
+    thread::Builder::new()
+        .name(name.into())
+        .spawn(f)
+        .map_err(|e| DaemonError::Serve(format!("cannot start the {name} thread: {e}")))
+}
+
+fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonError> {
+    config
+        .georef
+        .image
+        .as_ref()
+        .map(|path| {
+            GeoImage::open(path)
+                .map(Arc::new)
+                .map_err(|e| DaemonError::Image {
+                    path: path.display().to_string(),
+                    message: e.to_string(),
+                })
+        })
+        .transpose()
+}
+
+/// The reader thread: port → session → pipelines and recorder; pings; reopens after an
+/// unplug, keeping the session (counters, clock, partial state) across.
+fn read_port(
+    mut opener: Box<dyn PortOpener>,
+    link: &super::config::LinkConfig,
+    state: &SharedState,
+    shutdown: &AtomicBool,
+    event_txs: &[Sender<SensorEvent>],
+    record_tx: Option<&Sender<RecordItem>>,
+) {
+    let start = Instant::now();
+    let now_s = || start.elapsed().as_secs_f64();
+    let mut session = LinkSession::new(MeasuringMode(link.measuring_mode));
+    let mut port: Option<Box<dyn serialport::SerialPort>> = None;
+    let mut next_open = Instant::now();
+    let mut next_ping_s = 0.0;
+    let mut buf = vec![0u8; 8192];
+    let mut opened_before = false;
+    while !shutdown.load(Ordering::Relaxed) {
+        let Some(p) = port.as_mut() else {
+            if Instant::now() >= next_open {
+                match opener.open() {
+                    Ok(p) => {
+                        tracing::info!(port = %opener.name(), "port open");
+                        if opened_before {
+                            session.reconnected();
+                            if let Some(tx) = record_tx {
+                                let _ = tx.send(RecordItem::Reconnect(now_s()));
+                            }
+                        }
+                        opened_before = true;
+                        port = Some(p);
+                    }
+                    Err(e) => {
+                        tracing::debug!(error = %e, "port not available");
+                        next_open = Instant::now() + Duration::from_millis(link.reopen_interval_ms);
+                    }
+                }
+            } else {
+                thread::sleep(Duration::from_millis(10));
+            }
+            continue;
+        };
+        if now_s() >= next_ping_s {
+            next_ping_s = now_s() + link.ping_interval_s;
+            let sent_s = now_s();
+            let frame = session.ping(sent_s);
+            if p.write_all(&frame).is_ok()
+                && let Some(tx) = record_tx
+            {
+                let _ = tx.send(RecordItem::Sent(sent_s, frame));
+            }
+        }
+        match p.read(&mut buf) {
+            Ok(0) => {}
+            Ok(n) => {
+                let recv_s = now_s();
+                if let Some(tx) = record_tx {
+                    let _ = tx.send(RecordItem::Bytes(recv_s, buf[..n].to_vec()));
+                }
+                let decoded = session.feed(&buf[..n], recv_s);
+                if let Some(tx) = record_tx {
+                    for (received, host_s) in decoded.messages {
+                        let _ = tx.send(RecordItem::Message(recv_s, host_s, Box::new(received)));
+                    }
+                }
+                for event in decoded.events {
+                    for tx in event_txs {
+                        let _ = tx.send(event.clone());
+                    }
+                }
+                if let Ok(mut s) = state.write() {
+                    s.counters = session.counters();
+                }
+            }
+            Err(e) if e.kind() == io::ErrorKind::TimedOut => {}
+            Err(e) => {
+                tracing::warn!(port = %opener.name(), error = %e, "port lost; reopening");
+                port = None;
+                next_open = Instant::now() + Duration::from_millis(link.reopen_interval_ms);
+                if let Ok(mut s) = state.write() {
+                    s.counters = session.counters();
+                }
+            }
+        }
+    }
+}
+
+fn run_ekf(
+    mut pipeline: EkfPipeline,
+    rx: &Receiver<SensorEvent>,
+    state: &RwLock<LiveState>,
+    image: Option<&GeoImage>,
+) -> EkfPipeline {
+    let mut scans_since_publish = 0;
+    for event in rx {
+        pipeline.on_event(&event);
+        if matches!(event, SensorEvent::Scan { .. }) {
+            scans_since_publish += 1;
+        }
+        if scans_since_publish >= EKF_PUBLISH_EVERY_SCANS
+            || matches!(event, SensorEvent::Fix { .. })
+        {
+            scans_since_publish = 0;
+            if let Ok(mut s) = state.write() {
+                publish_ekf(&mut s, &pipeline, image);
+            }
+        }
+    }
+    if let Ok(mut s) = state.write() {
+        publish_ekf(&mut s, &pipeline, image);
+    }
+    pipeline
+}
+
+fn run_grid(
+    mut pipeline: GridPipeline,
+    rx: &Receiver<SensorEvent>,
+    state: &RwLock<LiveState>,
+    owns_pose: bool,
+    redraw_every_scans: u32,
+) -> GridPipeline {
+    let mut scans = 0u32;
+    for event in rx {
+        pipeline.on_event(&event);
+        if !matches!(event, SensorEvent::Scan { .. }) {
+            continue;
+        }
+        scans += 1;
+        if scans.is_multiple_of(redraw_every_scans) {
+            let view = pipeline.grid_view();
+            if let Ok(mut s) = state.write() {
+                s.grid = Some(view);
+            }
+        }
+        if owns_pose && let Ok(mut s) = state.write() {
+            publish_grid_pose(&mut s, &pipeline);
+        }
+    }
+    if let Ok(mut s) = state.write() {
+        publish_grid(&mut s, &pipeline, owns_pose);
+    }
+    pipeline
+}
+
+/// The recorder thread: writes what the reader hands over, flushes on the interval.
+fn record(
+    mut recorder: Recorder,
+    rx: &Receiver<RecordItem>,
+    flush_every: Duration,
+) -> Result<RecordingSummary, RecordingError> {
+    let mut last_flush = Instant::now();
+    loop {
+        match rx.recv_timeout(flush_every) {
+            Ok(RecordItem::Bytes(t, bytes)) => recorder.record_bytes(t, &bytes)?,
+            Ok(RecordItem::Sent(t, bytes)) => recorder.record_sent(t, &bytes)?,
+            Ok(RecordItem::Reconnect(t)) => recorder.record_reconnect(t)?,
+            Ok(RecordItem::Message(t, host_s, received)) => {
+                recorder.record_message(t, host_s, &received)?;
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        if last_flush.elapsed() >= flush_every {
+            recorder.flush()?;
+            last_flush = Instant::now();
+        }
+    }
+    recorder.finish()
+}
