@@ -1,0 +1,310 @@
+//! The robot-host daemon end to end.
+//!
+//! * `demo_outdoor_maps_geo_references_and_replays_identically`: `hil-sim demo` on the
+//!   outdoor world: emulated sensors → firmware tasks → pty → daemon. The daemon must account
+//!   for every frame, align its map to GPS, answer `GET /api/state` and `POST /api/goal` while
+//!   it runs, and write every output; replaying its MCAP recording through the same pipelines
+//!   must give the same trajectory, byte for byte.
+//! * `demo_indoor_builds_an_occupancy_grid`: the indoor world gives an occupancy grid and the
+//!   ROS map files.
+//! * `the_daemon_reopens_its_port_and_keeps_its_state`: the port vanishes under the daemon
+//!   (as a USB cable pulled out) and comes back; the daemon reopens it, counts the reconnect,
+//!   and its counters and map carry on.
+
+use std::fs;
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use hil_sim::demo::{self, DemoOptions};
+use hil_sim::pty::PtyLink;
+use hil_sim::world::WorldKind;
+use host::daemon::config::{DaemonConfig, SlamMethod};
+use host::daemon::replay::replay;
+use host::daemon::runner::{Daemon, SerialPortOpener};
+use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, Message, RangeUnit, ScanMsg};
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = fs::remove_dir_all(&dir);
+    dir
+}
+
+/// A minimal HTTP/1.1 exchange; returns the status code and the body.
+fn http(addr: SocketAddr, method: &str, path: &str, body: &str) -> (u16, String) {
+    let mut stream = TcpStream::connect(addr).expect("the web view accepts connections");
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .expect("timeout");
+    write!(
+        stream,
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\n\
+         Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .expect("request sent");
+    let mut raw = Vec::new();
+    let _ = stream.read_to_end(&mut raw);
+    let response = String::from_utf8_lossy(&raw);
+    let status = response
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let body = response
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
+    (status, body)
+}
+
+#[test]
+fn demo_outdoor_maps_geo_references_and_replays_identically() {
+    let out = out_dir("daemon-demo-outdoor");
+    let mut api_checks = None;
+    let options = DemoOptions {
+        world: WorldKind::Outdoor,
+        seed: 3,
+        duration_s: 25.0,
+        serve: "127.0.0.1:0".parse().expect("address"),
+        foxglove: None,
+        out: out.clone(),
+        realtime: false,
+        linger_s: 0.0,
+    };
+    let report = demo::run(&options, |ready| {
+        let addr = ready.web.expect("the web view runs");
+        let (status, page) = http(addr, "GET", "/", "");
+        assert_eq!(status, 200);
+        assert!(page.contains("<canvas"), "{page}");
+        let (status, _) = http(addr, "GET", "/api/image.png", "");
+        assert_eq!(status, 200, "the aerial image is served");
+        // Before the map is aligned to GPS, a goal is refused with a reason.
+        let (status, body) = http(
+            addr,
+            "POST",
+            "/api/goal",
+            r#"{"pixel_x": 10, "pixel_y": 10}"#,
+        );
+        assert_eq!(status, 422, "{body}");
+        let (status, body) = http(addr, "POST", "/api/goal", r#"{"pixel_x": "ten"}"#);
+        assert_eq!(status, 400, "{body}");
+        api_checks = Some(addr);
+    })
+    .expect("the demo runs");
+    assert!(api_checks.is_some());
+
+    let counters = report.daemon_counters;
+    let sim = &report.simulation.counted;
+    assert_eq!(counters.frames_lost, 0, "{report:#?}");
+    assert_eq!(counters.crc_errors, 0);
+    // The daemon read every frame the simulation's side of the link saw.
+    assert_eq!(counters.frames, sim.host_frames, "{report:#?}");
+    assert!(
+        counters.telegrams > 500 && counters.gps_fixes > 200,
+        "{counters:?}"
+    );
+    assert!(counters.clock_synchronised);
+    assert!(
+        report.geo_referenced,
+        "the map is aligned to GPS: {report:#?}"
+    );
+    assert!(report.landmarks > 20, "{report:#?}");
+    for name in [
+        "trajectory.tsv",
+        "map.png",
+        "map_over_image.png",
+        "map.geojson",
+        "map.kml",
+        "summary.json",
+        "run.mcap",
+        "aerial.tif",
+    ] {
+        let path = out.join(name);
+        let size = fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        assert!(size > 100, "{} is missing or empty", path.display());
+    }
+    let geojson = fs::read_to_string(out.join("map.geojson")).expect("GeoJSON");
+    assert!(geojson.contains("LineString") && geojson.contains("Point"));
+
+    // The estimate follows the truth: the last pose lies near the route's end, in the
+    // world frame (the local frame at the world's datum).
+    let trajectory = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory");
+    let last: Vec<f64> = trajectory
+        .lines()
+        .last()
+        .expect("poses")
+        .split('\t')
+        .map(|v| v.parse().expect("number"))
+        .collect();
+    let truth = hil_sim::world::Scenario::generate_for(WorldKind::Outdoor, 3, 26.0);
+    let end = truth.pose_at(25.0);
+    let error_m = (last[1] - end.x_m).hypot(last[2] - end.y_m);
+    assert!(
+        error_m < 3.0,
+        "final position {error_m:.2} m from the truth"
+    );
+
+    // The recording replays to the same trajectory, byte for byte.
+    let mut config = DaemonConfig::default();
+    config.slam.method = SlamMethod::Ekf;
+    let datum = truth.datum();
+    config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);
+    let (outcome, truncated) =
+        replay(&out.join("run.mcap"), &config, None, false).expect("the recording replays");
+    assert!(!truncated);
+    let replayed = out.join("replayed");
+    host::daemon::outputs::write_outputs(&replayed, &outcome, None).expect("outputs");
+    let again = fs::read_to_string(replayed.join("trajectory.tsv")).expect("trajectory");
+    assert_eq!(
+        again, trajectory,
+        "the replay gives the live run's trajectory"
+    );
+    assert_eq!(outcome.state.counters.frames, counters.frames);
+}
+
+#[test]
+fn demo_indoor_builds_an_occupancy_grid() {
+    let out = out_dir("daemon-demo-indoor");
+    let options = DemoOptions {
+        world: WorldKind::Indoor,
+        seed: 7,
+        duration_s: 12.0,
+        serve: "127.0.0.1:0".parse().expect("address"),
+        foxglove: None,
+        out: out.clone(),
+        realtime: false,
+        linger_s: 0.0,
+    };
+    let report = demo::run(&options, |_| {}).expect("the demo runs");
+    assert!(report.daemon_scans > 300, "{report:#?}");
+    assert!(!report.geo_referenced);
+    for name in [
+        "map.png",
+        "map.pgm",
+        "map.yaml",
+        "trajectory.tsv",
+        "run.mcap",
+    ] {
+        assert!(out.join(name).exists(), "{name} is missing");
+    }
+    let yaml = fs::read_to_string(out.join("map.yaml")).expect("yaml");
+    assert!(yaml.contains("resolution: 0.05"), "{yaml}");
+}
+
+/// Frames as the board sends them.
+fn board_frames(encoder: &mut Encoder, messages: &[Message]) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    for m in messages {
+        let mut out = [0u8; MAX_WIRE_LEN];
+        bytes.extend_from_slice(encoder.encode(m, &mut out).expect("encodes"));
+    }
+    bytes
+}
+
+fn scan(stamp_us: u64, counter: u32) -> Message {
+    Message::Scan(ScanMsg {
+        stamp_us,
+        scan_counter: counter,
+        start_angle_cdeg: 0,
+        step_angle_cdeg: 100,
+        unit: RangeUnit::Mm,
+        count_word: 181,
+        values: (0..181).map(|i| 2000 + (i % 7) as u16).collect(),
+        status: 0,
+        sensor_indices: None,
+    })
+}
+
+fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
+    let deadline = Instant::now() + timeout;
+    while !done() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn the_daemon_reopens_its_port_and_keeps_its_state() {
+    let dir = out_dir("daemon-reconnect");
+    fs::create_dir_all(&dir).expect("dir");
+    // The daemon opens the port by a name that, as a udev symlink does, follows the device.
+    let port_path = dir.join("ttyBOARD");
+    let mut board = PtyLink::open().expect("pty");
+    std::os::unix::fs::symlink(board.board_path(), &port_path).expect("symlink");
+
+    let mut config = DaemonConfig::default();
+    config.link.port = port_path.display().to_string();
+    config.link.reopen_interval_ms = 50;
+    config.slam.method = SlamMethod::Grid;
+    config.web.enabled = false;
+    config.web.foxglove_listen = None;
+    config.record.path = Some(dir.join("run.mcap"));
+    let opener = SerialPortOpener {
+        path: config.link.port.clone(),
+        baud: config.link.baud,
+    };
+    let daemon = Daemon::start(&config, Box::new(opener)).expect("daemon starts");
+    let state = daemon.state();
+    let counters = || state.read().expect("state").counters;
+
+    let mut encoder = Encoder::new();
+    let mut t_us = 0;
+    let mut counter = 0;
+    let mut send = |board: &mut PtyLink, n: usize| {
+        for _ in 0..n {
+            t_us += 26_667;
+            counter += 1;
+            let mut frames = board_frames(&mut encoder, &[scan(t_us, counter)]);
+            if counter % 10 == 0 {
+                frames.extend(board_frames(
+                    &mut encoder,
+                    &[Message::Heartbeat(HeartbeatMsg { uptime_us: t_us })],
+                ));
+            }
+            board.device.write_all(&frames).expect("written");
+        }
+    };
+    // The daemon opens the port on its own; frames sent before that are not read.
+    wait_for("the port to open", Duration::from_secs(5), || {
+        send(&mut board, 1);
+        counters().telegrams > 0
+    });
+    send(&mut board, 40);
+    wait_for("40 scans", Duration::from_secs(10), || {
+        counters().telegrams >= 41
+    });
+    let before = counters();
+
+    // Unplugged: the device goes away; a new one appears under the same name.
+    drop(board);
+    fs::remove_file(&port_path).expect("symlink removed");
+    std::thread::sleep(Duration::from_millis(300));
+    let mut board = PtyLink::open().expect("pty");
+    std::os::unix::fs::symlink(board.board_path(), &port_path).expect("symlink");
+    wait_for("the reconnect", Duration::from_secs(10), || {
+        send(&mut board, 1);
+        counters().reconnects >= 1 && counters().telegrams > before.telegrams
+    });
+    send(&mut board, 30);
+    wait_for(
+        "the scans after the reconnect",
+        Duration::from_secs(10),
+        || counters().telegrams >= before.telegrams + 30,
+    );
+    let outcome = daemon.stop().expect("stops");
+    let after = outcome.state.counters;
+    assert_eq!(after.reconnects, 1, "{after:?}");
+    assert!(after.frames > before.frames, "{before:?} → {after:?}");
+    let grid = outcome.grid.expect("the grid pipeline ran");
+    assert_eq!(
+        grid.trajectory().len() as u64,
+        after.telegrams,
+        "every scan before and after the reconnect reached the map"
+    );
+    // The recording holds the reconnect, so a replay counts it too.
+    let (replayed, _) = replay(&dir.join("run.mcap"), &config, None, false).expect("replays");
+    assert_eq!(replayed.state.counters.reconnects, 1);
+    assert_eq!(replayed.state.counters.telegrams, after.telegrams);
+}
