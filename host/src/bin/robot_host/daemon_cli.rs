@@ -25,6 +25,16 @@ pub struct ConfigArgs {
     /// Baud rate of a UART link [link.baud].
     #[arg(long)]
     pub baud: Option<u32>,
+    /// After an unplug, try to reopen the port this often, milliseconds
+    /// [link.reopen_interval_ms].
+    #[arg(long)]
+    pub reopen_interval_ms: Option<u64>,
+    /// Time-sync pings every this many seconds [link.ping_interval_s].
+    #[arg(long)]
+    pub ping_interval_s: Option<f64>,
+    /// The laser's measuring mode, how its range words are coded [link.measuring_mode].
+    #[arg(long)]
+    pub measuring_mode: Option<u8>,
     /// Which SLAM pipelines run: ekf, grid, both or none [slam.method].
     #[arg(long)]
     pub slam: Option<SlamMethod>,
@@ -37,6 +47,16 @@ pub struct ConfigArgs {
     /// The EKF uses returns up to this range, metres [slam.ekf_max_range_m].
     #[arg(long)]
     pub ekf_max_range_m: Option<f64>,
+    /// A local map closes at this many landmarks [slam.ekf_landmarks_per_local_map].
+    #[arg(long)]
+    pub ekf_landmarks_per_local_map: Option<usize>,
+    /// The grid pipeline uses returns up to this range, metres [slam.grid_max_range_m].
+    #[arg(long)]
+    pub grid_max_range_m: Option<f64>,
+    /// The live occupancy grid is redrawn every this many scans
+    /// [slam.grid_redraw_every_scans].
+    #[arg(long)]
+    pub grid_redraw_every_scans: Option<u32>,
     /// Cell size of the occupancy grid, metres [slam.grid_resolution_m].
     #[arg(long)]
     pub grid_resolution_m: Option<f64>,
@@ -82,6 +102,24 @@ impl ConfigArgs {
         }
         if let Some(v) = self.baud {
             c.link.baud = v;
+        }
+        if let Some(v) = self.reopen_interval_ms {
+            c.link.reopen_interval_ms = v;
+        }
+        if let Some(v) = self.ping_interval_s {
+            c.link.ping_interval_s = v;
+        }
+        if let Some(v) = self.measuring_mode {
+            c.link.measuring_mode = v;
+        }
+        if let Some(v) = self.ekf_landmarks_per_local_map {
+            c.slam.ekf_landmarks_per_local_map = v;
+        }
+        if let Some(v) = self.grid_max_range_m {
+            c.slam.grid_max_range_m = v;
+        }
+        if let Some(v) = self.grid_redraw_every_scans {
+            c.slam.grid_redraw_every_scans = v;
         }
         if let Some(v) = self.slam {
             c.slam.method = v;
@@ -198,13 +236,34 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         println!("foxglove: ws://{addr}");
     }
     let started = Instant::now();
+    // A status line on a terminal (hidden when stderr is not one).
+    let status = indicatif::ProgressBar::new_spinner();
+    status.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    let state = daemon.state();
     while !stop.load(Ordering::Relaxed)
         && args
             .duration_s
             .is_none_or(|d| started.elapsed().as_secs_f64() < d)
     {
+        if let Ok(s) = state.read() {
+            let c = s.counters;
+            status.set_message(format!(
+                "scans {} · fixes {} (quality {}) · frames lost {} · CRC errors {} · reconnects {}",
+                c.telegrams,
+                c.gps_fixes,
+                c.gps_fix_quality,
+                c.frames_lost,
+                c.crc_errors,
+                c.reconnects
+            ));
+        }
+        status.tick();
         std::thread::sleep(Duration::from_millis(100));
     }
+    status.finish_and_clear();
     let outcome = daemon.stop().map_err(|e| e.to_string())?;
     if let Some(out) = &args.out {
         let image = open_image(&config)?;
