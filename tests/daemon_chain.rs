@@ -97,10 +97,14 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
 
     let counters = report.daemon_counters;
     let sim = &report.simulation.counted;
-    assert_eq!(counters.frames_lost, 0, "{report:#?}");
-    assert_eq!(counters.crc_errors, 0);
-    // The daemon read every frame the simulation's side of the link saw.
+    // The daemon saw exactly what the simulation's side of the link saw: every frame, and
+    // the same gaps (a loaded machine can make the firmware drop a frame; both count it).
     assert_eq!(counters.frames, sim.host_frames, "{report:#?}");
+    assert_eq!(
+        counters.frames_lost, report.simulation.frames_lost_on_link,
+        "{report:#?}"
+    );
+    assert!(counters.crc_errors <= sim.host_bad_frames, "{report:#?}");
     assert!(
         counters.telegrams > 500 && counters.gps_fixes > 200,
         "{counters:?}"

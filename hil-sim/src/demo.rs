@@ -11,7 +11,7 @@ use std::fs;
 use std::io;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use host::daemon::LinkCounters;
 use host::daemon::config::{DaemonConfig, SlamMethod};
@@ -28,8 +28,8 @@ use crate::world::{Scenario, WorldKind};
 
 /// Metres per pixel of the generated aerial image.
 const AERIAL_PIXEL_M: f64 = 0.25;
-/// After the sensors stop, the daemon gets this long to take in the last frames.
-const DRAIN: Duration = Duration::from_millis(500);
+/// After the sensors stop, the daemon gets up to this long to take in the last frames.
+const DRAIN: Duration = Duration::from_secs(10);
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -160,7 +160,19 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         hardware: None,
     };
     let simulation = run_relayed(&run_options, relay);
-    std::thread::sleep(DRAIN.max(Duration::from_secs_f64(options.linger_s.max(0.0))));
+    // The daemon reads on its own thread: give it the frames the simulation's side read.
+    if let Ok(summary) = &simulation {
+        let state = daemon.state();
+        let deadline = Instant::now() + DRAIN;
+        while Instant::now() < deadline
+            && state
+                .read()
+                .is_ok_and(|s| s.counters.frames < summary.counted.host_frames)
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    std::thread::sleep(Duration::from_secs_f64(options.linger_s.max(0.0)));
     let web = daemon.web_addr().map(|a| format!("http://{a}/"));
     let outcome = daemon.stop().map_err(io::Error::other)?;
     let simulation = simulation?;

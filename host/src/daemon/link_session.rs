@@ -281,7 +281,7 @@ mod tests {
     }
 
     #[test]
-    fn heartbeats_synchronise_the_clock_and_replayed_pings_match_acks() {
+    fn a_replayed_ping_is_awaited_like_the_live_one() {
         let mut session = LinkSession::new(MeasuringMode::DEFAULT);
         let beats: Vec<Message> = (0..5)
             .map(|i| {

@@ -46,16 +46,7 @@ pub fn write_geotiff_rgb8(
     georef: &ProjectedGeoref,
 ) -> Result<(), GeoImageError> {
     let invalid = |m: String| GeoImageError::InvalidArgument(m);
-    if width == 0 || height == 0 {
-        return Err(invalid(format!("image size {width}×{height} is empty")));
-    }
-    let expected = width as usize * height as usize * 3;
-    if rgb.len() != expected {
-        return Err(invalid(format!(
-            "RGB buffer has {} bytes, {width}×{height}×3 = {expected} expected",
-            rgb.len()
-        )));
-    }
+    check_rgb_buffer(width, height, rgb)?;
     if !(georef.pixel_size_m.is_finite() && georef.pixel_size_m > 0.0) {
         return Err(invalid(format!(
             "pixel size {} m is not positive",
@@ -120,16 +111,7 @@ pub fn write_geotiff_geographic_rgb8(
     georef: &GeographicGeoref,
 ) -> Result<(), GeoImageError> {
     let invalid = |m: String| GeoImageError::InvalidArgument(m);
-    if width == 0 || height == 0 {
-        return Err(invalid(format!("image size {width}×{height} is empty")));
-    }
-    let expected = width as usize * height as usize * 3;
-    if rgb.len() != expected {
-        return Err(invalid(format!(
-            "RGB buffer has {} bytes, {width}×{height}×3 = {expected} expected",
-            rgb.len()
-        )));
-    }
+    check_rgb_buffer(width, height, rgb)?;
     if !georef
         .pixel_size_deg
         .iter()
@@ -167,6 +149,22 @@ pub fn write_geotiff_geographic_rgb8(
         &directory,
         ascii,
     )
+}
+
+/// Checks that `rgb` holds `width × height` RGB pixels, and that there are some.
+fn check_rgb_buffer(width: u32, height: u32, rgb: &[u8]) -> Result<(), GeoImageError> {
+    let invalid = |m: String| GeoImageError::InvalidArgument(m);
+    if width == 0 || height == 0 {
+        return Err(invalid(format!("image size {width}×{height} is empty")));
+    }
+    let expected = width as usize * height as usize * 3;
+    if rgb.len() != expected {
+        return Err(invalid(format!(
+            "RGB buffer has {} bytes, {width}×{height}×3 = {expected} expected",
+            rgb.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Writes the image with its pixel scale, the tie point of raster (0, 0) and the GeoKeys.
