@@ -4,9 +4,12 @@
 //! QEMU's STM32 USART has no FIFO and no DMA: it hands over the next byte only once the last
 //! one was read from the data register. So the receive interrupt takes every byte as it comes
 //! into a ring ([`RX_CAPACITY`]), with the core cycle count at which it arrived, and the
-//! reading task empties the ring at its own pace. Writes go into a transmit pipe that the
-//! interrupt feeds to the data register while it is empty (QEMU sends a byte the moment it is
-//! written). The same driver works on a real STM32F4, one interrupt per byte.
+//! reading task empties the ring at its own pace.
+//!
+//! Transmission is not interrupt-driven: QEMU 7.2's USART raises its interrupt for received
+//! bytes only (never for TXE or TC), and sends a byte the moment it is written to the data
+//! register. A write puts each byte into the data register once it is empty, yielding to the
+//! other tasks while it is not (on a real STM32F4 that would be one byte time).
 //!
 //! The arrival stamps serve the measurement in [`crate::latency`]: a read reports the stamp of
 //! the newest byte it returns.
@@ -17,9 +20,7 @@ use core::sync::atomic::{AtomicU8, Ordering};
 use core::task::Poll;
 
 use critical_section::Mutex;
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::pipe::Pipe;
-use embassy_sync::signal::Signal;
+use embassy_futures::yield_now;
 use embassy_sync::waitqueue::AtomicWaker;
 use firmware::tasks::{BaudRate, PortError, SerialRx, SerialTx};
 use heapless::Deque;
@@ -29,8 +30,6 @@ use crate::{debug, time_driver};
 
 /// Bytes the receive ring holds: 40 ms of a continuous 500 kBd stream.
 pub const RX_CAPACITY: usize = 2048;
-/// Bytes waiting to be sent: more than the largest host-link frame.
-pub const TX_CAPACITY: usize = 2048;
 
 /// Error flags the interrupt saw, reported by the next read.
 const FLAG_OVERRUN: u8 = 1;
@@ -42,9 +41,6 @@ pub struct UsartState {
     rx: Mutex<RefCell<Deque<(u8, u32), RX_CAPACITY>>>,
     rx_waker: AtomicWaker,
     errors: AtomicU8,
-    tx: Pipe<CriticalSectionRawMutex, TX_CAPACITY>,
-    /// Raised when the interrupt has sent the last byte of the pipe.
-    tx_idle: Signal<CriticalSectionRawMutex, ()>,
 }
 
 impl UsartState {
@@ -54,8 +50,6 @@ impl UsartState {
             rx: Mutex::new(RefCell::new(Deque::new())),
             rx_waker: AtomicWaker::new(),
             errors: AtomicU8::new(0),
-            tx: Pipe::new(),
-            tx_idle: Signal::new(),
         }
     }
 }
@@ -122,18 +116,14 @@ impl Usart {
 
     /// Waits until every byte written has left the transmitter.
     async fn flush(&self) {
-        loop {
-            self.state.tx_idle.reset();
-            if self.state.tx.is_empty() && !self.regs.cr1().read().txeie() {
-                return;
-            }
-            self.state.tx_idle.wait().await;
+        while !self.regs.sr().read().tc() {
+            yield_now().await;
         }
     }
 }
 
-/// Takes the received byte into the ring and feeds the transmitter. Call from the interrupt
-/// handler of the USART `regs` whose state is `state`.
+/// Takes the received byte into the ring. Call from the interrupt handler of the USART `regs`
+/// whose state is `state`.
 pub fn on_interrupt(regs: Regs, state: &UsartState) {
     let sr = regs.sr().read();
     if sr.rxne() || sr.ore() {
@@ -161,17 +151,6 @@ pub fn on_interrupt(regs: Regs, state: &UsartState) {
             state.errors.fetch_or(flags, Ordering::Relaxed);
         }
         state.rx_waker.wake();
-    }
-    if regs.cr1().read().txeie() {
-        let mut byte = [0u8];
-        while regs.sr().read().txe() {
-            if state.tx.try_read(&mut byte).is_err() {
-                regs.cr1().modify(|w| w.set_txeie(false));
-                state.tx_idle.signal(());
-                break;
-            }
-            regs.dr().write(|w| w.set_dr(u16::from(byte[0])));
-        }
     }
 }
 
@@ -216,14 +195,15 @@ impl SerialRx for Usart {
 }
 
 impl SerialTx for Usart {
-    /// Queues `bytes` for the transmit interrupt; returns once the last one is queued. A UART
-    /// cannot tell whether anyone listens, so it never reports [`PortError::Disconnected`].
+    /// Writes `bytes` to the data register one by one as it empties; returns once the last
+    /// one is in. A UART cannot tell whether anyone listens, so it never reports
+    /// [`PortError::Disconnected`].
     async fn write_all(&mut self, bytes: &[u8]) -> Result<(), PortError> {
-        let mut rest = bytes;
-        while !rest.is_empty() {
-            let n = self.state.tx.write(rest).await;
-            critical_section::with(|_| self.regs.cr1().modify(|w| w.set_txeie(true)));
-            rest = rest.get(n..).unwrap_or(&[]);
+        for &byte in bytes {
+            while !self.regs.sr().read().txe() {
+                yield_now().await;
+            }
+            self.regs.dr().write(|w| w.set_dr(u16::from(byte)));
         }
         Ok(())
     }

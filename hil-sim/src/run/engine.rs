@@ -29,6 +29,7 @@
 
 use std::io::{self, Read, Write};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use firmware::sick::{ScanRepr, Telegram};
@@ -65,12 +66,22 @@ pub enum Line {
     Pty(PtyLink),
     /// A serial port (a real UART adapter, or any tty).
     Port(TTYPort),
+    /// A pseudo-terminal whose board end an emulated UART (QEMU's) opened, which passes every
+    /// byte whatever the rates: the rate the board's UART listens at is what the board
+    /// reports, kept in `board_baud`, and bytes sent at another rate are garbled as a real UART
+    /// would hear them.
+    Emulated {
+        /// The pty.
+        link: PtyLink,
+        /// The board's rate, Bd.
+        board_baud: Arc<AtomicU32>,
+    },
 }
 
 impl Line {
     fn device(&mut self) -> &mut TTYPort {
         match self {
-            Line::Pty(link) => &mut link.device,
+            Line::Pty(link) | Line::Emulated { link, .. } => &mut link.device,
             Line::Port(port) => port,
         }
     }
@@ -167,10 +178,12 @@ impl Endpoint {
     }
 
     /// The rate the board's end listens at: read back from the pty when the board is in
-    /// this process, otherwise the line's own rate (a real UART pair garbles by itself).
+    /// this process, as reported by an emulated board, otherwise the line's own rate (a real
+    /// UART pair garbles by itself).
     fn board_baud(&mut self) -> io::Result<u32> {
         match (&self.board, &mut self.line) {
             (Some(_), Line::Pty(link)) => link.board_baud(),
+            (_, Line::Emulated { board_baud, .. }) => Ok(board_baud.load(Ordering::SeqCst)),
             (_, line) => line.device().baud_rate().map_err(io::Error::other),
         }
     }
