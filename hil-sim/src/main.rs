@@ -60,6 +60,11 @@ enum Command {
             conflicts_with = "hardware"
         )]
         qemu: Option<PathBuf>,
+        /// Bring the laser up as the QEMU image does (38 400 Bd instead of 500 kBd, millimetres
+        /// in every world), with the firmware in this process: the reference a --qemu run of
+        /// the same seed is compared with.
+        #[arg(long, conflicts_with_all = ["qemu", "hardware"])]
+        qemu_config: bool,
     },
     /// Replay a recording through the whole chain: the emulated LMS is brought up by the
     /// firmware as usual, then streams the recording's scans over the serial line (and the
@@ -313,9 +318,15 @@ fn demo(options: hil_sim::demo::DemoOptions) -> Result<(), Box<dyn std::error::E
 fn run(
     options: hil_sim::run::RunOptions,
     qemu: Option<PathBuf>,
+    qemu_config: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let Some(elf) = qemu else {
-        let summary = hil_sim::run::run(&options)?;
+        let summary = if qemu_config {
+            let image = Some(hil_sim::qemu::image_bring_up());
+            hil_sim::run::run_with_bring_up(&options, None, image)?
+        } else {
+            hil_sim::run::run(&options)?
+        };
         return report(&summary, &options.out);
     };
     let (summary, measured) = hil_sim::qemu::run(&options, &hil_sim::qemu::QemuOptions::new(elf))?;
@@ -446,6 +457,7 @@ fn main() -> ExitCode {
             realtime,
             hardware,
             qemu,
+            qemu_config,
         } => run(
             hil_sim::run::RunOptions {
                 world,
@@ -457,6 +469,7 @@ fn main() -> ExitCode {
                 hardware: hardware.ports(),
             },
             qemu,
+            qemu_config,
         ),
         Command::Replay {
             carmen,

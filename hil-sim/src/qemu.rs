@@ -21,15 +21,14 @@
 //!   [`Line::Emulated`]: bytes the emulators send at another rate are garbled as a real UART
 //!   would hear them, as in the lock-step runs.
 //! * **Time**: `-icount shift=3` runs the core at one instruction per 8 ns of QEMU's virtual
-//!   clock (125 MIPS) and lets that clock follow the wall while the core sleeps: the image's
-//!   timers keep wall-clock time, and the cycles it measures count instructions, not the
-//!   host's speed.
+//!   clock (125 MIPS), on which the image counts its cycles: they count instructions, not the
+//!   host's speed. The image's own clock is the host's, read by semihosting, since the virtual
+//!   clock falls behind the wall (`firmware/qemu/src/time_driver.rs`).
 //! * **Measurements**: the image's last `measure` line ([`Measurements`]), written to
 //!   `OUT/qemu.json` beside the run's outputs; every debug line goes to `OUT/qemu-debug.log`.
 //! * **Panics**: the image prints `panic …` on its debug line and QEMU exits; the run fails
 //!   with that message.
 
-use std::collections::VecDeque;
 use std::fs;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -71,7 +70,7 @@ const ICOUNT_SHIFT: u32 = 3;
 const START_TIMEOUT: Duration = Duration::from_secs(10);
 /// The image writes its measurements every second; how long to wait for a fresh line.
 const MEASURE_WAIT: Duration = Duration::from_millis(2_500);
-/// Debug lines kept for error messages.
+/// Debug lines quoted in an error message.
 const LOG_LINES: usize = 50;
 /// The laser's rate at power-up, until the image says otherwise.
 const LASER_POWER_UP_BAUD: u32 = 9_600;
@@ -216,14 +215,24 @@ struct DebugLog {
     panic: Option<String>,
     measurements: Option<Measurements>,
     measure_lines: u64,
-    recent: VecDeque<String>,
-    /// Every line, with the wall time since start-up, s.
+    /// Every line, with the wall time since the first, s.
     all: Vec<(f64, String)>,
     started: Option<Instant>,
 }
 
+impl DebugLog {
+    /// The last [`LOG_LINES`] lines.
+    fn recent(&self) -> Vec<String> {
+        let from = self.all.len().saturating_sub(LOG_LINES);
+        self.all[from..]
+            .iter()
+            .map(|(_, line)| line.clone())
+            .collect()
+    }
+}
+
 /// The debug line's reader and what it found.
-struct Debug {
+struct DebugChannel {
     log: Mutex<DebugLog>,
     changed: Condvar,
     laser_baud: Arc<AtomicU32>,
@@ -231,7 +240,7 @@ struct Debug {
     stop: AtomicBool,
 }
 
-impl Debug {
+impl DebugChannel {
     fn lock(&self) -> MutexGuard<'_, DebugLog> {
         self.log.lock().unwrap_or_else(PoisonError::into_inner)
     }
@@ -265,10 +274,6 @@ impl Debug {
             .elapsed()
             .as_secs_f64();
         log.all.push((at_s, line.to_owned()));
-        if log.recent.len() == LOG_LINES {
-            log.recent.pop_front();
-        }
-        log.recent.push_back(line.to_owned());
         self.changed.notify_all();
     }
 
@@ -293,7 +298,7 @@ impl Debug {
 /// Lets QEMU's CPU run and waits for the image's `boot` line.
 fn release(
     monitor: &Mutex<ChildStdin>,
-    debug: &Debug,
+    debug: &DebugChannel,
     stderr: &Mutex<String>,
 ) -> Result<(), QemuError> {
     {
@@ -302,7 +307,7 @@ fn release(
         monitor.flush()?;
     }
     if !debug.wait_for(START_TIMEOUT, |log| log.booted || log.panic.is_some()) {
-        let log = debug.lock().recent.iter().cloned().collect();
+        let log = debug.lock().recent();
         let stderr = stderr
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
@@ -324,7 +329,7 @@ fn release(
 }
 
 /// Reads debug lines from `link` until told to stop or the line fails.
-fn read_debug(mut link: PtyLink, debug: Arc<Debug>) {
+fn read_debug(mut link: PtyLink, debug: Arc<DebugChannel>) {
     let port: &mut TTYPort = &mut link.device;
     if port.set_timeout(Duration::from_millis(100)).is_err() {
         return;
@@ -357,7 +362,7 @@ pub struct QemuBoard {
     /// QEMU's monitor; kept open while QEMU runs.
     monitor: Arc<Mutex<ChildStdin>>,
     stderr: Arc<Mutex<String>>,
-    debug: Arc<Debug>,
+    debug: Arc<DebugChannel>,
     reader: Option<JoinHandle<()>>,
 }
 
@@ -429,7 +434,7 @@ impl QemuBoard {
                 }
             });
         }
-        let shared = Arc::new(Debug {
+        let shared = Arc::new(DebugChannel {
             log: Mutex::new(DebugLog::default()),
             changed: Condvar::new(),
             laser_baud: Arc::new(AtomicU32::new(LASER_POWER_UP_BAUD)),
@@ -578,7 +583,7 @@ mod tests {
 
     #[test]
     fn debug_lines_set_the_reported_rates_and_flags() {
-        let debug = Debug {
+        let debug = DebugChannel {
             log: Mutex::new(DebugLog::default()),
             changed: Condvar::new(),
             laser_baud: Arc::new(AtomicU32::new(9_600)),

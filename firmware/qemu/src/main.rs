@@ -111,9 +111,12 @@ fn main() -> ! {
     spawn(spawner, link_tx_task(LinkTx(host_tx)));
     spawn(spawner, link_rx_task(host_rx));
     spawn(spawner, report_task());
+    // The stack used so far is what start-up took: the tasks' futures are built on the stack
+    // before they move into their pools.
     debug::line(format_args!(
-        "boot stack_bytes={} laser_target_baud={}",
+        "boot stack_bytes={} stack_used_bytes={} laser_target_baud={}",
         stack::size_bytes(),
+        stack::used_bytes(),
         LASER_TARGET_BAUD.baud()
     ));
     idle::run(executor)

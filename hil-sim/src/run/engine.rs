@@ -49,6 +49,10 @@ use crate::world::{RobotState, Trajectory, World};
 pub const QUANTUM_US: u64 = 1_000;
 /// The longest step when nothing is scheduled, µs.
 const MAX_STEP_US: u64 = 10_000;
+/// The longest step on the wall clock, µs: the engine cannot know when a board it does not see
+/// inside writes, so it looks at the lines this often (a command waits at most this long
+/// before the emulated sensor hears it).
+const WALL_POLL_US: u64 = QUANTUM_US;
 /// Time-sync pings, one every this many µs.
 const PING_PERIOD_US: u64 = 1_000_000;
 /// After the sensors stop: how long the firmware and host drain, µs.
@@ -648,7 +652,11 @@ impl<'c, W: World> Engine<'c, W> {
     }
 
     fn next_event_us(&mut self, t_us: u64, phase: Phase, duration_us: u64) -> u64 {
-        let mut next = t_us + MAX_STEP_US;
+        let max_step_us = match self.wiring {
+            Wiring::LockStep { .. } => MAX_STEP_US,
+            Wiring::Wall => WALL_POLL_US,
+        };
+        let mut next = t_us + max_step_us;
         if phase == Phase::Running {
             let emulators = [
                 self.sensors.lms.next_output_us(),
