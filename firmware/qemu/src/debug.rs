@@ -3,10 +3,13 @@
 //!
 //! Lines, one per event, `key value …`:
 //!
-//! * `boot stack_bytes=N`: the tasks run; the stack has N bytes.
+//! * `boot stack_bytes=N stack_used_bytes=U laser_target_baud=B`: the USARTs listen and the
+//!   tasks are spawned; the stack has N bytes, of which start-up used U; the laser will stream
+//!   at B Bd.
 //! * `baud NAME RATE`: the USART NAME (`laser`, `gps`, `host`) now runs at RATE Bd. QEMU
 //!   ignores the divider; the simulator uses this to hear the line as a real UART would.
-//! * `measure …`: the measurements of [`crate::report`].
+//! * `measure stack_used_bytes=… stack_bytes=… latency_max_cycles=… latency_samples=…
+//!   core_hz=…`: the measurements ([`crate::stack`], [`crate::latency`]), every second.
 //! * `panic MESSAGE at FILE:LINE`: the firmware panicked; QEMU then exits with status 1
 //!   (semihosting).
 //!

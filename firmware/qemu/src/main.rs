@@ -4,8 +4,13 @@
 //!
 //! embassy-stm32 does not start under QEMU (its clock set-up waits for RCC flags QEMU does not
 //! model), so this image has its own small drivers below the tasks' port traits: a SysTick
-//! time driver ([`time_driver`]) and an interrupt-driven USART driver ([`usart`]). The core
-//! runs at QEMU's 168 MHz SYSCLK without any clock set-up.
+//! time driver ([`time_driver`], on the host's clock read by semihosting) and a USART driver
+//! with interrupt-driven reception ([`usart`]). The core runs at QEMU's 168 MHz SYSCLK without
+//! any clock set-up; the executor sleeps with `WFI` ([`idle`]). QEMU must run with
+//! `-semihosting-config enable=on` (`.cargo/config.toml`'s runner and `hil-sim run --qemu` do).
+//!
+//! The laser streams at 38 400 Bd instead of the board's 500 kBd ([`LASER_TARGET_BAUD`]); the
+//! GPS USART is set to hil-sim's receiver rate, 115 200 Bd.
 //!
 //! | task      | USART (QEMU serial port)    | as on the board            |
 //! |-----------|-----------------------------|----------------------------|
@@ -15,7 +20,8 @@
 //! | `report`  | USART1 (`-serial` #1), debug lines | —                   |
 //!
 //! There is no PPS input: QEMU models no GPIO edges. The `report` task writes the
-//! measurements ([`stack`] high-water mark, [`latency`]) to the debug line every second.
+//! measurements ([`stack`] high-water mark, [`latency`]) to the debug line every second
+//! ([`debug`]).
 
 #![no_std]
 #![no_main]

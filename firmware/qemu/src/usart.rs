@@ -1,4 +1,4 @@
-//! An interrupt-driven USART driver behind the firmware's port traits
+//! A USART driver with interrupt-driven reception, behind the firmware's port traits
 //! ([`SerialRx`], [`SerialTx`], [`BaudRate`]).
 //!
 //! QEMU's STM32 USART has no FIFO and no DMA: it hands over the next byte only once the last
