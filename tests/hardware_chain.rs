@@ -56,6 +56,7 @@ fn a_board_on_serial_lines_is_driven_on_the_wall_clock_and_accounts_for_every_sc
         gps: Line::Pty(gps),
         host: Line::Pty(host),
         gps_baud,
+        start: None,
     };
     let started = std::time::Instant::now();
     let summary = run_on(&options, Some(lines)).expect("run");

@@ -6,8 +6,8 @@ cd "$(dirname "$0")/.."
 
 step() { printf '\n==> %s\n' "$*"; }
 
-# Crates with their own workspace: the board binary and the fuzz targets.
-separate=(firmware/board protocol/fuzz firmware/lib/fuzz)
+# Crates with their own workspace: the board binaries and the fuzz targets.
+separate=(firmware/board firmware/qemu protocol/fuzz firmware/lib/fuzz)
 
 step "cargo fmt --check"
 cargo fmt --all --check
@@ -17,6 +17,13 @@ done
 
 step "cargo clippy (workspace, all targets, -D warnings)"
 cargo clippy --workspace --all-targets -- -D warnings
+
+step "QEMU image: release build for thumbv7em-none-eabihf (tests/qemu_chain.rs boots it)"
+(
+    cd firmware/qemu
+    cargo clippy --release -- -D warnings
+    cargo build --release
+)
 
 step "cargo test --workspace"
 cargo test --workspace

@@ -13,6 +13,7 @@ pub mod faults;
 pub mod landmark_sim;
 pub mod nees;
 pub mod pty;
+pub mod qemu;
 pub mod replay;
 pub mod run;
 pub mod sim_time;

@@ -81,6 +81,23 @@ enum Command {
         realtime: bool,
         #[command(flatten)]
         hardware: HardwareArgs,
+        /// Boot the firmware image for QEMU's netduinoplus2 machine (the thumbv7em build of
+        /// firmware/qemu) in qemu-system-arm and drive it instead of the firmware in this
+        /// process, on the wall clock as with --hardware. Writes OUT/qemu.json: the image's
+        /// stack high-water mark and its worst telegram-to-frame time in emulated cycles.
+        #[arg(
+            long,
+            value_name = "ELF",
+            num_args = 0..=1,
+            default_missing_value = hil_sim::qemu::DEFAULT_ELF,
+            conflicts_with = "hardware"
+        )]
+        qemu: Option<PathBuf>,
+        /// Bring the laser up as the QEMU image does (38 400 Bd instead of 500 kBd, millimetres
+        /// in every world), with the firmware in this process: the reference a --qemu run of
+        /// the same seed is compared with.
+        #[arg(long, conflicts_with_all = ["qemu", "hardware"])]
+        qemu_config: bool,
     },
     /// Replay a recording through the whole chain: the emulated LMS is brought up by the
     /// firmware as usual, then streams the recording's scans over the serial line (and the
@@ -348,8 +365,31 @@ fn bringup(options: hil_sim::bringup::BringUpOptions) -> Result<(), Box<dyn std:
     std::process::exit(0);
 }
 
-fn run(options: hil_sim::run::RunOptions) -> Result<(), Box<dyn std::error::Error>> {
-    let summary = hil_sim::run::run(&options)?;
+fn run(
+    options: hil_sim::run::RunOptions,
+    qemu: Option<PathBuf>,
+    qemu_config: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Some(elf) = qemu else {
+        let summary = if qemu_config {
+            let image = Some(hil_sim::qemu::image_bring_up());
+            hil_sim::run::run_with_bring_up(&options, None, image)?
+        } else {
+            hil_sim::run::run(&options)?
+        };
+        return report(&summary, &options.out);
+    };
+    let (summary, measured) = hil_sim::qemu::run(&options, &hil_sim::qemu::QemuOptions::new(elf))?;
+    eprintln!(
+        "hil-sim: QEMU image: stack {} of {} bytes used; telegram to frame at most {} cycles \
+         ({:.1} µs, {} instructions) over {} scans",
+        measured.measurements.stack_used_bytes,
+        measured.measurements.stack_bytes,
+        measured.measurements.latency_max_cycles,
+        measured.latency_max_us,
+        measured.latency_max_instructions,
+        measured.measurements.latency_samples,
+    );
     report(&summary, &options.out)
 }
 
@@ -485,15 +525,21 @@ fn main() -> ExitCode {
             out,
             realtime,
             hardware,
-        } => run(hil_sim::run::RunOptions {
-            world,
-            seed,
-            duration_s: duration,
-            faults,
-            out,
-            realtime,
-            hardware: hardware.ports(),
-        }),
+            qemu,
+            qemu_config,
+        } => run(
+            hil_sim::run::RunOptions {
+                world,
+                seed,
+                duration_s: duration,
+                faults,
+                out,
+                realtime,
+                hardware: hardware.ports(),
+            },
+            qemu,
+            qemu_config,
+        ),
         Command::Replay {
             carmen,
             victoria,

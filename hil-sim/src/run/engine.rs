@@ -29,6 +29,7 @@
 
 use std::io::{self, Read, Write};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use firmware::sick::{ScanRepr, Telegram};
@@ -48,6 +49,10 @@ use crate::world::{RobotState, Trajectory, World};
 pub const QUANTUM_US: u64 = 1_000;
 /// The longest step when nothing is scheduled, µs.
 const MAX_STEP_US: u64 = 10_000;
+/// The longest step on the wall clock, µs: the engine cannot know when a board it does not see
+/// inside writes, so it looks at the lines this often (a command waits at most this long
+/// before the emulated sensor hears it).
+const WALL_POLL_US: u64 = QUANTUM_US;
 /// Time-sync pings, one every this many µs.
 const PING_PERIOD_US: u64 = 1_000_000;
 /// After the sensors stop: how long the firmware and host drain, µs.
@@ -65,12 +70,22 @@ pub enum Line {
     Pty(PtyLink),
     /// A serial port (a real UART adapter, or any tty).
     Port(TTYPort),
+    /// A pseudo-terminal whose board end an emulated UART (QEMU's) opened, which passes every
+    /// byte whatever the rates: the rate the board's UART listens at is what the board
+    /// reports, kept in `board_baud`, and bytes sent at another rate are garbled as a real UART
+    /// would hear them.
+    Emulated {
+        /// The pty.
+        link: PtyLink,
+        /// The board's rate, Bd.
+        board_baud: Arc<AtomicU32>,
+    },
 }
 
 impl Line {
     fn device(&mut self) -> &mut TTYPort {
         match self {
-            Line::Pty(link) => &mut link.device,
+            Line::Pty(link) | Line::Emulated { link, .. } => &mut link.device,
             Line::Port(port) => port,
         }
     }
@@ -167,10 +182,12 @@ impl Endpoint {
     }
 
     /// The rate the board's end listens at: read back from the pty when the board is in
-    /// this process, otherwise the line's own rate (a real UART pair garbles by itself).
+    /// this process, as reported by an emulated board, otherwise the line's own rate (a real
+    /// UART pair garbles by itself).
     fn board_baud(&mut self) -> io::Result<u32> {
         match (&self.board, &mut self.line) {
             (Some(_), Line::Pty(link)) => link.board_baud(),
+            (_, Line::Emulated { board_baud, .. }) => Ok(board_baud.load(Ordering::SeqCst)),
             (_, line) => line.device().baud_rate().map_err(io::Error::other),
         }
     }
@@ -656,7 +673,11 @@ impl<'c, W: World> Engine<'c, W> {
     }
 
     fn next_event_us(&mut self, t_us: u64, phase: Phase, duration_us: u64) -> u64 {
-        let mut next = t_us + MAX_STEP_US;
+        let max_step_us = match self.wiring {
+            Wiring::LockStep { .. } => MAX_STEP_US,
+            Wiring::Wall => WALL_POLL_US,
+        };
+        let mut next = t_us + max_step_us;
         if phase == Phase::Running {
             let emulators = [
                 self.sensors.lms.next_output_us(),

@@ -98,6 +98,8 @@ pub struct WallLines {
     pub host: Line,
     /// The rate the board's GPS UART listens at.
     pub gps_baud: u32,
+    /// Called just before the run's clock starts (an emulated board is released from reset).
+    pub start: Option<Box<dyn FnOnce() -> io::Result<()> + Send>>,
 }
 
 impl WallLines {
@@ -118,6 +120,7 @@ impl WallLines {
             gps: open(&ports.gps, ports.gps_baud)?,
             host: open(&ports.host, HOST_LINK_BAUD)?,
             gps_baud: ports.gps_baud,
+            start: None,
         })
     }
 }
@@ -137,7 +140,21 @@ pub fn run(options: &RunOptions) -> io::Result<RunSummary> {
 /// # Errors
 /// As [`run`].
 pub fn run_on(options: &RunOptions, lines: Option<WallLines>) -> io::Result<RunSummary> {
-    run_chain(options, lines, None)
+    run_chain(options, lines, None, None)
+}
+
+/// As [`run_on`], with the firmware in this process bringing the laser up with `bring_up`
+/// when given (e.g. as the QEMU image does, [`crate::qemu::image_bring_up`]) instead of the
+/// board's default with the world's range unit (cm outdoors, mm indoors).
+///
+/// # Errors
+/// As [`run`].
+pub fn run_with_bring_up(
+    options: &RunOptions,
+    lines: Option<WallLines>,
+    bring_up: Option<BringUpConfig>,
+) -> io::Result<RunSummary> {
+    run_chain(options, lines, bring_up, None)
 }
 
 /// As [`run`] with the firmware in this process, passing the host link on through `relay`
@@ -147,12 +164,13 @@ pub fn run_on(options: &RunOptions, lines: Option<WallLines>) -> io::Result<RunS
 /// # Errors
 /// As [`run`].
 pub fn run_relayed(options: &RunOptions, relay: PtyLink) -> io::Result<RunSummary> {
-    run_chain(options, None, Some(relay))
+    run_chain(options, None, None, Some(relay))
 }
 
 fn run_chain(
     options: &RunOptions,
     lines: Option<WallLines>,
+    bring_up: Option<BringUpConfig>,
     relay: Option<PtyLink>,
 ) -> io::Result<RunSummary> {
     check_duration(options.duration_s)?;
@@ -168,6 +186,16 @@ fn run_chain(
         },
         scenario.world().clone(),
     );
+    // Outdoors the features are far: 80 m (cm) mode; indoors mm resolution.
+    let bring_up = bring_up.unwrap_or_else(|| {
+        let mut config = BringUpConfig::default();
+        config.laser.unit = if outdoor {
+            RangeUnit::Cm
+        } else {
+            RangeUnit::Mm
+        };
+        config
+    });
     let chain = Chain {
         lms,
         datum: scenario.datum(),
@@ -175,12 +203,7 @@ fn run_chain(
         gps_has_sky: outdoor,
         scan_truth: None,
         gps_log: None,
-        // Outdoors the features are far: 80 m (cm) mode; indoors mm resolution.
-        unit: if outdoor {
-            RangeUnit::Cm
-        } else {
-            RangeUnit::Mm
-        },
+        bring_up,
         pixel_m: if outdoor { 0.1 } else { 0.05 },
     };
     let (summary, records) = execute(chain, options, options.duration_s, lines, relay)?;
@@ -385,7 +408,11 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
         gps_has_sky: recording.gps.is_some(),
         scan_truth: Some(recording.truth),
         gps_log: recording.gps,
-        unit: recording.unit,
+        bring_up: {
+            let mut config = BringUpConfig::default();
+            config.laser.unit = recording.unit;
+            config
+        },
         pixel_m: if matches!(options.source, ReplaySource::Victoria(_)) {
             0.1
         } else {
@@ -415,7 +442,8 @@ struct Chain {
     gps_has_sky: bool,
     scan_truth: Option<Vec<RobotState>>,
     gps_log: Option<(Vec<LocalGpsFix>, f64)>,
-    unit: RangeUnit,
+    /// How the firmware in this process brings the laser up.
+    bring_up: BringUpConfig,
     pixel_m: f64,
 }
 
@@ -459,7 +487,10 @@ fn execute(
     let host = HostSide::new(Estimator::new(chain.pixel_m));
     let duration_us = (duration_s * 1e6).round() as u64;
     let wall = std::time::Instant::now();
-    if let Some(lines) = lines {
+    if let Some(mut lines) = lines {
+        if let Some(start) = lines.start.take() {
+            start()?;
+        }
         let endpoints = (
             Endpoint::wall(lines.laser),
             Endpoint::wall(lines.gps),
@@ -483,14 +514,12 @@ fn execute(
     let laser_link = PtyLink::open()?;
     let gps_link = PtyLink::open()?;
     let host_link = PtyLink::open()?;
-    let mut laser_config = BringUpConfig::default();
-    laser_config.laser.unit = chain.unit;
     let board = board::spawn(BoardConfig {
         laser_path: laser_link.board_path().into(),
         gps_path: gps_link.board_path().into(),
         host_path: host_link.board_path().into(),
         gps_baud: gps_options.baud,
-        laser: laser_config,
+        laser: chain.bring_up,
         gps: GpsOptions::default(),
     })?;
     let endpoints = (
