@@ -5,8 +5,7 @@
 use std::sync::Arc;
 
 use protocol::{
-    Decoder, Encoder, FixQuality, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, Received,
-    StatusMsg,
+    Decoder, Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, Received, StatusMsg,
 };
 
 use super::state::LinkCounters;
@@ -117,7 +116,7 @@ impl LinkSession {
                 }
                 Message::GpsFix(fix) => {
                     self.counters.gps_fixes += 1;
-                    self.counters.gps_fix_quality = fix_quality_digit(fix.quality);
+                    self.counters.gps_fix_quality = fix.quality.gga_digit();
                     self.counters.gps_satellites = fix.num_sats.unwrap_or(0);
                     decoded.events.push(SensorEvent::Fix {
                         host_time_s: host_time(fix.stamp_us),
@@ -193,11 +192,6 @@ impl LinkSession {
     pub fn link_stats(&self) -> crate::link::LinkStats {
         self.reader.stats()
     }
-}
-
-/// The fix quality as the GGA digit.
-fn fix_quality_digit(quality: FixQuality) -> u8 {
-    quality.gga_digit()
 }
 
 /// The board time a message carries, µs.

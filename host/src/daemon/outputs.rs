@@ -7,16 +7,15 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
-use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
+use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 use super::runner::RunOutcome;
+use super::web::render_map_png;
 use crate::geoimage::GeoImage;
 use crate::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
 
-/// Pixels per metre of the landmark map drawing.
-const LANDMARK_MAP_PX_PER_M: f32 = 5.0;
-/// The landmark map drawing is at most this wide or high, pixels.
-const MAX_DRAWING_PX: f32 = 3000.0;
+/// The longer side of the landmark map drawing, pixels.
+const MAP_DRAWING_SIDE_PX: u32 = 2000;
 
 /// An output that cannot be written.
 #[derive(Debug, thiserror::Error)]
@@ -75,10 +74,9 @@ pub fn write_outputs(
         written.files.push(yaml);
     } else if let Some(ekf) = &outcome.ekf {
         let points: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1[0], r.1[1]]).collect();
-        let drawing = draw_landmark_map(&points, &ekf.landmarks_in_map());
-        drawing
-            .save_png(&path)
+        let png = render_map_png(&points, &ekf.landmarks_in_map(), MAP_DRAWING_SIDE_PX)
             .map_err(|e| output_error(&path)(e.to_string()))?;
+        fs::write(&path, png).map_err(|e| output_error(&path)(e.to_string()))?;
         written.files.push(path);
     }
 
@@ -161,45 +159,6 @@ fn write_trajectory(path: &Path, rows: &[(f64, [f64; 3])]) -> io::Result<()> {
         writeln!(w, "{t:.6}\t{:.4}\t{:.4}\t{:.5}", p[0], p[1], p[2])?;
     }
     w.flush()
-}
-
-/// The landmark map and trajectory, north up, on white.
-pub fn draw_landmark_map(trajectory_m: &[[f64; 2]], landmarks_m: &[[f64; 2]]) -> Pixmap {
-    let all = trajectory_m.iter().chain(landmarks_m);
-    let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in all {
-        for k in 0..2 {
-            min[k] = min[k].min(p[k]);
-            max[k] = max[k].max(p[k]);
-        }
-    }
-    if !min[0].is_finite() {
-        min = [-10.0; 2];
-        max = [10.0; 2];
-    }
-    let margin_m = 5.0;
-    let span = [
-        max[0] - min[0] + 2.0 * margin_m,
-        max[1] - min[1] + 2.0 * margin_m,
-    ];
-    let scale = LANDMARK_MAP_PX_PER_M.min(MAX_DRAWING_PX / span[0].max(span[1]) as f32);
-    let width = ((span[0] as f32 * scale).ceil() as u32).max(1);
-    let height = ((span[1] as f32 * scale).ceil() as u32).max(1);
-    let mut pixmap = Pixmap::new(width, height).unwrap_or_else(|| {
-        // Width and height are at least 1 and bounded, so this is not reached.
-        Pixmap::new(1, 1).unwrap_or_else(|| unreachable!())
-    });
-    pixmap.fill(Color::WHITE);
-    let to_px = |p: &[f64; 2]| {
-        (
-            ((p[0] - min[0] + margin_m) as f32) * scale,
-            ((max[1] + margin_m - p[1]) as f32) * scale,
-        )
-    };
-    let trajectory_px: Vec<(f32, f32)> = trajectory_m.iter().map(to_px).collect();
-    let landmarks_px: Vec<(f32, f32)> = landmarks_m.iter().map(to_px).collect();
-    draw_track_and_landmarks(&mut pixmap, &trajectory_px, &landmarks_px);
-    pixmap
 }
 
 /// The map and trajectory (map frame = the local metric frame at the datum) drawn over the
