@@ -1,18 +1,20 @@
 //! Local tracking: each scan placed in the `local` frame against the active submap.
 //!
 //! The motion since the last scan is predicted from the odometry when there is some, else
-//! taken to be the last motion again (constant velocity). The prediction is refined on the
-//! older active submap's interpolated grid. If the scan then fits poorly (the prediction was
-//! too far off for a local refinement), the exact raster matcher searches a wide window
-//! against the last scans, and the best of both refinements wins. The pose found goes into
-//! both active submaps; the older is finished when the newer has received
-//! [`SlamOptions::scans_per_submap`] scans.
+//! taken to be the last motion again (constant velocity). From the prediction, the scan's end
+//! points are aligned by point-to-line ICP ([`super::icp`]) on the older active submap's
+//! points. If too few end points then lie on the submap's surfaces, the prediction was too far
+//! off for a local alignment: the exact raster matcher searches a wide window against the last
+//! scans, the alignment is run again from what it found and from the last pose, and the
+//! candidate with the most end points on the submap's surfaces wins.
+//! The pose found goes into both active submaps; the older is finished when the newer has
+//! received [`SlamOptions::scans_per_submap`] scans.
 
+use super::icp::align;
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
-use super::slam_submap::SlamSubmap;
+use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::grid::{Refinement, ScanRefiner};
 use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatcher};
 
 /// What tracking made of one scan.
@@ -22,8 +24,8 @@ pub struct TrackedScan {
     pub node: usize,
     /// `local_from_robot` at the scan.
     pub pose_in_local: Pose2,
-    /// Mean grid probability at the scan's end points after refinement (1 for the first scan).
-    pub probability: f64,
+    /// How the scan fits the submap it was aligned on (default for the first scan).
+    pub fit: SubmapFit,
     /// Whether the wide search ran.
     pub searched: bool,
     /// A submap this scan finished, to keep for loop closure.
@@ -37,7 +39,6 @@ pub struct LocalTracker {
     /// Older first; at most two.
     active: Vec<SlamSubmap>,
     recent: RecentScans,
-    refiner: ScanRefiner,
     wide_search: FastMatcher,
     last_pose_in_local: Option<Pose2>,
     last_motion: Pose2,
@@ -60,7 +61,6 @@ impl LocalTracker {
             256,
         )?;
         Ok(LocalTracker {
-            refiner: ScanRefiner::new(local.refiner),
             wide_search,
             recent: RecentScans::new(local.recent_scans),
             active: Vec::new(),
@@ -88,34 +88,39 @@ impl LocalTracker {
             return TrackedScan {
                 node,
                 pose_in_local: pose,
-                probability: 1.0,
+                fit: SubmapFit::default(),
                 searched: false,
                 finished_submap: None,
             };
         };
+        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         let motion = odometry_motion.unwrap_or(self.last_motion);
         let predicted = last_pose * motion;
-        let (mut best, mut searched) = (self.refine(scan, predicted), false);
-        let min_probability = self.options.local.min_refined_probability;
-        if best.as_ref().is_none_or(|(_, p)| *p < min_probability) {
+        let mut best = self.align(&points, predicted);
+        let mut searched = false;
+        let local = &self.options.local;
+        if best.is_none_or(|(_, fit)| fit.inlier_fraction < local.min_inlier_fraction) {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
+            let mut guesses = vec![last_pose];
             if let Ok(found) = self.wide_search.match_scans(&reference, scan, motion) {
-                let candidate = last_pose * found.reference_from_new;
-                if let Some(refined) = self.refine(scan, candidate)
-                    && best.as_ref().is_none_or(|(_, p)| refined.1 > *p)
+                guesses.push(last_pose * found.reference_from_new);
+            }
+            for guess in guesses {
+                if let Some(candidate) = self.align(&points, guess)
+                    && best.is_none_or(|(_, fit)| candidate.1.inlier_fraction > fit.inlier_fraction)
                 {
-                    best = Some(refined);
+                    best = Some(candidate);
                 }
             }
         }
-        let (pose, probability) = best.unwrap_or((predicted, 0.0));
+        let (pose, fit) = best.unwrap_or((predicted, SubmapFit::default()));
         let finished_submap = self.accept(node, scan, pose);
         self.last_motion = last_pose.inverse() * pose;
         TrackedScan {
             node,
             pose_in_local: pose,
-            probability,
+            fit,
             searched,
             finished_submap,
         }
@@ -126,24 +131,27 @@ impl LocalTracker {
         &self.active
     }
 
-    /// Refines `guess_in_local` on the older active submap: the pose and its probability.
-    fn refine(&mut self, scan: &Scan, guess_in_local: Pose2) -> Option<(Pose2, f64)> {
-        let submap = self.active.first_mut()?;
+    /// Aligns `points` (robot frame) on the older active submap from `guess_in_local`: the
+    /// pose in the local frame and how it fits.
+    fn align(&self, points: &[[f64; 2]], guess_in_local: Pose2) -> Option<(Pose2, SubmapFit)> {
+        let submap = self.active.first()?;
         let submap_in_local = submap.pose_in_local();
         let guess = submap_in_local.inverse() * guess_in_local;
-        let Refinement {
-            grid_from_robot,
-            mean_probability,
-            ..
-        } = self.refiner.refine(scan, submap.interpolated(), guess)?;
-        Some((submap_in_local * grid_from_robot, mean_probability))
+        let icp = &self.options.local.icp;
+        let found = align(submap.points(), points, guess, icp)?;
+        let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
+        Some((submap_in_local * found.map_from_robot, fit))
     }
 
     /// Inserts the scan at `pose` and starts and finishes submaps as due.
     fn accept(&mut self, node: usize, scan: &Scan, pose: Pose2) -> Option<SlamSubmap> {
         if self.active.is_empty() {
-            self.active
-                .push(SlamSubmap::new(pose, node, self.options.submap));
+            self.active.push(SlamSubmap::new(
+                pose,
+                node,
+                self.options.submap,
+                self.options.point_map,
+            ));
         }
         for submap in &mut self.active {
             submap.insert(node, scan, pose);
@@ -154,7 +162,7 @@ impl LocalTracker {
             .is_some_and(|s| s.num_scans() >= self.options.scans_per_submap);
         let mut finished = None;
         if newest_full {
-            let mut next = SlamSubmap::new(pose, node, self.options.submap);
+            let mut next = SlamSubmap::new(pose, node, self.options.submap, self.options.point_map);
             next.insert(node, scan, pose);
             self.active.push(next);
             if self.active.len() > 2 {

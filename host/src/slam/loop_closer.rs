@@ -2,16 +2,18 @@
 //!
 //! The exact raster matcher ([`FastMatcher`]) searches a wide window (metres, tens of degrees)
 //! around the scan's estimated pose in the submap, drawing the scan over all of the submap's
-//! scans; the best candidate is refined on the submap's interpolated grid and accepted when
-//! the scan's end points then fall on occupied cells with a mean probability of at least
-//! [`LoopClosureOptions::min_probability`]. The wide window is what recovers the drift of
-//! local tracking; the probability threshold is what keeps a corridor that merely looks alike
-//! from closing a loop it should not.
+//! scans; the best candidate is aligned by point-to-line ICP on the submap's points and
+//! accepted when at least [`LoopClosureOptions::min_inlier_fraction`] of the scan's end points
+//! then lie on the submap's surfaces, at most [`LoopClosureOptions::max_free_fraction`] on
+//! cells it has seen free, and they fall on occupied cells of its grid with a mean probability
+//! of at least [`LoopClosureOptions::min_probability`]. The wide window is what
+//! recovers the drift of local tracking; the two thresholds are what keep a corridor that
+//! merely looks alike from closing a loop it should not.
 
+use super::icp::align;
 use super::options::LoopClosureOptions;
-use super::slam_submap::SlamSubmap;
+use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::grid::{ScanRefiner, ScanRefinerOptions};
 use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatchError, ScanMatcher};
 
 /// A scan found in a submap.
@@ -19,8 +21,8 @@ use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatchError, ScanMatcher};
 pub struct LoopClosure {
     /// `submap_from_robot`: the scan's pose in the submap frame.
     pub pose_in_submap: Pose2,
-    /// Mean grid probability at the scan's end points.
-    pub probability: f64,
+    /// How the scan fits the submap there.
+    pub fit: SubmapFit,
 }
 
 /// The searcher. See the [module documentation](self).
@@ -28,18 +30,14 @@ pub struct LoopClosure {
 pub struct LoopCloser {
     options: LoopClosureOptions,
     matcher: FastMatcher,
-    refiner: ScanRefiner,
 }
 
 impl LoopCloser {
-    /// A searcher with `options`, refining with `refiner`.
+    /// A searcher with `options`.
     ///
     /// # Errors
     /// When the options do not make a valid raster or table.
-    pub fn new(
-        options: LoopClosureOptions,
-        refiner: ScanRefinerOptions,
-    ) -> Result<Self, ScanMatchError> {
+    pub fn new(options: LoopClosureOptions) -> Result<Self, ScanMatchError> {
         let matcher = window_matcher(
             options.search_window_m,
             options.search_window_rad,
@@ -47,11 +45,7 @@ impl LoopCloser {
             options.search_rotation_step_rad,
             options.raster_side_px,
         )?;
-        Ok(LoopCloser {
-            matcher,
-            refiner: ScanRefiner::new(refiner),
-            options,
-        })
+        Ok(LoopCloser { matcher, options })
     }
 
     /// The options in use.
@@ -69,15 +63,20 @@ impl LoopCloser {
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
-        let grid = submap.interpolated_if_ready()?;
         let found = self
             .matcher
             .match_scans(reference, scan, guess_in_submap)
             .ok()?;
-        let refined = self.refiner.refine(scan, grid, found.reference_from_new)?;
-        (refined.mean_probability >= self.options.min_probability).then_some(LoopClosure {
-            pose_in_submap: refined.grid_from_robot,
-            probability: refined.mean_probability,
+        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
+        let icp = &self.options.icp;
+        let aligned = align(submap.points(), &points, found.reference_from_new, icp)?;
+        let fit = submap.fit(&points, aligned.map_from_robot, icp.inlier_m);
+        let good = fit.inlier_fraction >= self.options.min_inlier_fraction
+            && fit.free_fraction <= self.options.max_free_fraction
+            && fit.mean_probability >= self.options.min_probability;
+        good.then_some(LoopClosure {
+            pose_in_submap: aligned.map_from_robot,
+            fit,
         })
     }
 }

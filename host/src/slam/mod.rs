@@ -4,15 +4,15 @@
 //!
 //! * **Local tracking** ([`LocalTracker`]): each scan is placed in a drift-prone `local` frame
 //!   by matching it against the active occupancy-grid submap. The pose is predicted from the
-//!   odometry when the log has it, else from the last motion; a sub-cell
-//!   [`ScanRefiner`](crate::grid::ScanRefiner) aligns the scan on the submap's interpolated
-//!   probabilities, and when that alignment is poor a wide search with the exact
+//!   odometry when the log has it, else from the last motion; point-to-line ICP ([`icp`])
+//!   aligns the scan's end points on the submap's points ([`PointMap`]), and when too few of
+//!   them fit, a wide search with the exact
 //!   [`FastMatcher`](crate::scan_match::FastMatcher) against the last scans finds the pose
 //!   first. Scans go into two overlapping submaps with log-odds ray insertion; a submap is
 //!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
-//!   then refined on the submap grid; a match good enough becomes a constraint.
+//!   then aligned on the submap's points; a match good enough becomes a constraint.
 //! * **Pose graph** ([`crate::pose_graph`]): one node per scan, an edge per consecutive pair
 //!   from local tracking, an edge per loop closure (robust kernel) from the submap's first
 //!   scan; solved with a sparse Cholesky factorisation whenever loops were found.
@@ -21,9 +21,11 @@
 //! [`SlamResult::global_grid`] draws the global map from them.
 
 mod graph_slam;
+pub mod icp;
 mod local_tracker;
 mod loop_closer;
 mod options;
+pub mod point_map;
 mod recent_scans;
 mod slam_submap;
 mod window_matcher;
@@ -32,5 +34,6 @@ pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{LoopCloser, LoopClosure};
 pub use options::{LocalTrackingOptions, LoopClosureOptions, SlamOptions};
+pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
 pub use slam_submap::SlamSubmap;

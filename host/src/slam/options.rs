@@ -1,6 +1,8 @@
 //! The options of the SLAM pipeline, each with a default that works on the benchmark logs.
 
-use crate::grid::{ScanRefinerOptions, SubmapOptions};
+use super::icp::IcpOptions;
+use super::point_map::PointMapOptions;
+use crate::grid::SubmapOptions;
 use crate::pose_graph::OptimizeOptions;
 use crate::scan_match::Scan;
 
@@ -9,6 +11,8 @@ use crate::scan_match::Scan;
 pub struct SlamOptions {
     /// How submap grids are built (5 cm cells by default).
     pub submap: SubmapOptions,
+    /// How submaps keep their end points for alignment.
+    pub point_map: PointMapOptions,
     /// Scans a submap receives before the next one starts; each submap receives up to twice as
     /// many (two submaps are active at a time).
     pub scans_per_submap: usize,
@@ -60,6 +64,7 @@ impl Default for SlamOptions {
         submap.range_inserter.miss_probability = 0.3;
         SlamOptions {
             submap,
+            point_map: PointMapOptions::default(),
             scans_per_submap: 30,
             max_range_m: 30.0,
             min_range_m: 0.1,
@@ -76,12 +81,11 @@ impl Default for SlamOptions {
 /// How each scan is placed against the active submap.
 #[derive(Clone, Debug)]
 pub struct LocalTrackingOptions {
-    /// The sub-cell refinement on the submap grid.
-    pub refiner: ScanRefinerOptions,
-    /// A refinement whose mean probability at the scan's end points is below this triggers
-    /// the wide search; 1 (the default) searches for every scan, which the benchmark logs,
-    /// with a metre and tens of degrees between scans, need.
-    pub min_refined_probability: f64,
+    /// The point-to-line alignment on the submap's points.
+    pub icp: IcpOptions,
+    /// An alignment from the prediction that leaves fewer of the scan's end points on the
+    /// submap's surfaces than this triggers the wide search.
+    pub min_inlier_fraction: f64,
     /// Half width of the wide search's translation window, metres.
     pub search_window_m: f64,
     /// Half width of the wide search's rotation window, radians.
@@ -97,8 +101,8 @@ pub struct LocalTrackingOptions {
 impl Default for LocalTrackingOptions {
     fn default() -> Self {
         LocalTrackingOptions {
-            refiner: ScanRefinerOptions::default(),
-            min_refined_probability: 1.0,
+            icp: IcpOptions::default(),
+            min_inlier_fraction: 0.8,
             search_window_m: 1.0,
             search_window_rad: 45f64.to_radians(),
             search_resolution_m: 0.1,
@@ -127,7 +131,15 @@ pub struct LoopClosureOptions {
     pub raster_side_px: u32,
     /// Submaps whose frame is farther from the scan's estimated pose are not searched, metres.
     pub max_distance_m: f64,
-    /// Mean probability at the scan's end points, after refinement, that accepts a match.
+    /// The point-to-line alignment of a match on the submap's points.
+    pub icp: IcpOptions,
+    /// Fraction of the scan's end points on the submap's surfaces, after alignment, that
+    /// accepts a match.
+    pub min_inlier_fraction: f64,
+    /// Largest fraction of the scan's end points on cells the submap has seen free, after
+    /// alignment, that accepts a match.
+    pub max_free_fraction: f64,
+    /// Mean grid probability at the scan's end points, after alignment, that accepts a match.
     pub min_probability: f64,
     /// Submaps whose last scan is this recent (in scans) are not searched (local tracking
     /// covers them).
@@ -145,7 +157,10 @@ impl Default for LoopClosureOptions {
             search_rotation_step_rad: 1f64.to_radians(),
             raster_side_px: 256,
             max_distance_m: 10.0,
-            min_probability: 0.7,
+            icp: IcpOptions::default(),
+            min_inlier_fraction: 0.8,
+            max_free_fraction: 0.05,
+            min_probability: 0.6,
             min_scans_apart: 30,
         }
     }

@@ -1,8 +1,26 @@
-//! A submap as SLAM keeps it: the occupancy grid, the scans it holds drawn as one reference for
-//! the raster matcher, and which trajectory nodes it spans.
+//! A submap as SLAM keeps it: the occupancy grid, the end points with their normals for
+//! point-to-line alignment, the scans it holds drawn as one reference for the raster matcher,
+//! and which trajectory nodes it spans.
 
-use crate::grid::{InterpolatedGrid, Submap, SubmapOptions};
+use super::point_map::{PointMap, PointMapOptions};
+use crate::grid::{Submap, SubmapOptions};
 use crate::scan_match::{Pose2, Scan};
+
+/// How well a scan placed in a submap agrees with it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SubmapFit {
+    /// Fraction of the scan's end points within the inlier distance of a submap point.
+    pub inlier_fraction: f64,
+    /// Fraction of the scan's end points away from every submap point and on cells the submap
+    /// has seen free: a wall where the submap's beams passed through, which a right pose does
+    /// not produce.
+    pub free_fraction: f64,
+    /// Mean occupancy probability at the end points (unknown cells count as 0).
+    pub mean_probability: f64,
+}
+
+/// Cells below this occupancy probability count as seen free.
+const FREE_PROBABILITY: f32 = 0.4;
 
 /// One submap of the trajectory. Its frame is the local pose of its first scan, so a scan's
 /// pose in the submap is also its pose relative to that first node.
@@ -11,23 +29,29 @@ pub struct SlamSubmap {
     submap: Submap,
     /// `local_from_submap`.
     pose_in_local: Pose2,
+    /// End points with normals, in the submap frame.
+    points: PointMap,
     /// End points of every inserted scan in the submap frame, one polyline per scan.
     points_in_submap: Vec<Option<[f64; 2]>>,
     first_node: usize,
     last_node: usize,
-    interpolated: Option<InterpolatedGrid>,
 }
 
 impl SlamSubmap {
     /// An empty submap whose frame is `pose_in_local`, the pose of node `first_node`.
-    pub fn new(pose_in_local: Pose2, first_node: usize, options: SubmapOptions) -> Self {
+    pub fn new(
+        pose_in_local: Pose2,
+        first_node: usize,
+        options: SubmapOptions,
+        point_options: PointMapOptions,
+    ) -> Self {
         SlamSubmap {
             submap: Submap::with_pose_in_map(pose_in_local, options),
             pose_in_local,
+            points: PointMap::new(point_options),
             points_in_submap: Vec::new(),
             first_node,
             last_node: first_node,
-            interpolated: None,
         }
     }
 
@@ -38,6 +62,7 @@ impl SlamSubmap {
             return;
         }
         let submap_from_robot = self.pose_in_local.inverse() * robot_pose_in_local;
+        self.points.insert_scan(scan, submap_from_robot);
         self.points_in_submap.extend(
             scan.points_in_robot()
                 .iter()
@@ -45,24 +70,51 @@ impl SlamSubmap {
         );
         self.points_in_submap.push(None);
         self.last_node = node;
-        self.interpolated = None;
     }
 
-    /// Stops insertion and keeps the interpolated grid for matching.
+    /// Stops insertion.
     pub fn finish(&mut self) {
         self.submap.finish();
-        self.interpolated();
     }
 
-    /// The interpolated probabilities of the grid (rebuilt after an insertion).
-    pub fn interpolated(&mut self) -> &InterpolatedGrid {
-        self.interpolated
-            .get_or_insert_with(|| InterpolatedGrid::new(self.submap.grid()))
+    /// The occupancy grid, in the submap frame.
+    pub fn grid(&self) -> &crate::grid::ProbabilityGrid {
+        self.submap.grid()
     }
 
-    /// The interpolated grid if it is up to date.
-    pub fn interpolated_if_ready(&self) -> Option<&InterpolatedGrid> {
-        self.interpolated.as_ref()
+    /// The end points with normals, in the submap frame.
+    pub fn points(&self) -> &PointMap {
+        &self.points
+    }
+
+    /// How `points_in_robot` (end points, robot frame), placed at `submap_from_robot`, agree
+    /// with the submap; an end point within `inlier_m` of a submap point is an inlier.
+    pub fn fit(
+        &self,
+        points_in_robot: &[[f64; 2]],
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+    ) -> SubmapFit {
+        if points_in_robot.is_empty() {
+            return SubmapFit::default();
+        }
+        let grid = self.submap.grid();
+        let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
+        for &p in points_in_robot {
+            let point = submap_from_robot.transform_point(p);
+            let inlier = self.points.nearest_within(point, inlier_m).is_some();
+            inliers += usize::from(inlier);
+            if let Some(probability) = grid.probability_at(point) {
+                probability_sum += f64::from(probability);
+                free += usize::from(!inlier && probability < FREE_PROBABILITY);
+            }
+        }
+        let n = points_in_robot.len() as f64;
+        SubmapFit {
+            inlier_fraction: inliers as f64 / n,
+            free_fraction: free as f64 / n,
+            mean_probability: probability_sum / n,
+        }
     }
 
     /// Every inserted scan in the submap frame, as one reference for the raster matcher.

@@ -1,0 +1,197 @@
+//! Point-to-line ICP: a scan's end points aligned on a [`PointMap`] to a fraction of a
+//! centimetre.
+//!
+//! Each iteration pairs every end point with the nearest map point within the stage's
+//! correspondence distance and takes one Gauss–Newton step on the distances along the map
+//! points' normals (Huber-weighted, slightly damped so that a corridor, which fixes the pose
+//! only across it, does not make the step singular). The stages shrink the correspondence
+//! distance, so a guess some decimetres off is pulled in first and the last stage uses only
+//! close pairs. The result carries the fraction of end points that then lie within
+//! [`IcpOptions::inlier_m`] of the map: how well the scan fits.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::point_map::PointMap;
+use crate::scan_match::{Pose2, wrap_angle_rad};
+
+/// How the alignment runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IcpOptions {
+    /// Correspondence distance of each stage, metres, largest first.
+    pub stages_m: Vec<f64>,
+    /// Gauss–Newton steps per stage at most.
+    pub iterations_per_stage: usize,
+    /// Huber threshold of the point-to-line distance, metres.
+    pub huber_m: f64,
+    /// An end point this close to a map point counts as fitting, metres.
+    pub inlier_m: f64,
+    /// Fewer pairs than this make no alignment.
+    pub min_pairs: usize,
+}
+
+impl Default for IcpOptions {
+    fn default() -> Self {
+        IcpOptions {
+            stages_m: vec![0.6, 0.3, 0.15, 0.08],
+            iterations_per_stage: 8,
+            huber_m: 0.03,
+            inlier_m: 0.1,
+            min_pairs: 10,
+        }
+    }
+}
+
+/// An aligned scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IcpMatch {
+    /// `map_from_robot` after alignment.
+    pub map_from_robot: Pose2,
+    /// Fraction of the end points within [`IcpOptions::inlier_m`] of a map point.
+    pub inlier_fraction: f64,
+    /// RMS point-to-line distance of those end points, metres.
+    pub rms_m: f64,
+}
+
+/// Aligns `points_in_robot` on `map`, starting from `guess` (`map_from_robot`). `None` when
+/// too few points find a partner.
+pub fn align(
+    map: &PointMap,
+    points_in_robot: &[[f64; 2]],
+    guess: Pose2,
+    options: &IcpOptions,
+) -> Option<IcpMatch> {
+    if points_in_robot.is_empty() || map.is_empty() {
+        return None;
+    }
+    let mut pose = guess;
+    for &stage_m in &options.stages_m {
+        for _ in 0..options.iterations_per_stage {
+            let step = gauss_newton_step(map, points_in_robot, pose, stage_m, options)?;
+            pose = Pose2::new(
+                pose.x_m + step[0],
+                pose.y_m + step[1],
+                wrap_angle_rad(pose.theta_rad + step[2]),
+            );
+            if step[0].hypot(step[1]) < 1e-5 && step[2].abs() < 1e-6 {
+                break;
+            }
+        }
+    }
+    let (mut inliers, mut sum_sq) = (0usize, 0.0);
+    for &p in points_in_robot {
+        let moved = pose.transform_point(p);
+        if let Some(q) = map.nearest_within(moved, options.inlier_m) {
+            let [qx, qy] = q.point;
+            let [nx, ny] = q.normal;
+            inliers += 1;
+            sum_sq += (nx * (moved[0] - qx) + ny * (moved[1] - qy)).powi(2);
+        }
+    }
+    Some(IcpMatch {
+        map_from_robot: pose,
+        inlier_fraction: inliers as f64 / points_in_robot.len() as f64,
+        rms_m: if inliers > 0 {
+            (sum_sq / inliers as f64).sqrt()
+        } else {
+            f64::INFINITY
+        },
+    })
+}
+
+/// One damped Gauss–Newton step `[dx, dy, dθ]` on the pairs within `max_distance_m`.
+fn gauss_newton_step(
+    map: &PointMap,
+    points_in_robot: &[[f64; 2]],
+    pose: Pose2,
+    max_distance_m: f64,
+    options: &IcpOptions,
+) -> Option<[f64; 3]> {
+    let (sin, cos) = pose.theta_rad.sin_cos();
+    let mut hessian = Matrix3::<f64>::zeros();
+    let mut gradient = Vector3::<f64>::zeros();
+    let mut pairs = 0usize;
+    for &[px, py] in points_in_robot {
+        let moved = [
+            cos * px - sin * py + pose.x_m,
+            sin * px + cos * py + pose.y_m,
+        ];
+        let Some(q) = map.nearest_within(moved, max_distance_m) else {
+            continue;
+        };
+        let [qx, qy] = q.point;
+        let [nx, ny] = q.normal;
+        let residual = nx * (moved[0] - qx) + ny * (moved[1] - qy);
+        // d(moved)/dθ = (-sin px - cos py, cos px - sin py).
+        let jacobian = Vector3::new(
+            nx,
+            ny,
+            nx * (-sin * px - cos * py) + ny * (cos * px - sin * py),
+        );
+        let weight = if residual.abs() <= options.huber_m {
+            1.0
+        } else {
+            options.huber_m / residual.abs()
+        };
+        hessian += weight * jacobian * jacobian.transpose();
+        gradient += weight * residual * jacobian;
+        pairs += 1;
+    }
+    if pairs < options.min_pairs {
+        return None;
+    }
+    let damping = 1e-6 * hessian.trace().max(1e-9);
+    hessian += Matrix3::identity() * damping;
+    let step = hessian.cholesky()?.solve(&(-gradient));
+    Some([step[0], step[1], step[2]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::point_map::{PointMapOptions, points_with_normals};
+    use super::*;
+    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
+    use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn recovers_an_offset_pose_in_a_room() {
+        let walls = polygon_walls(&[
+            [-4.0, -3.0],
+            [5.0, -3.0],
+            [5.0, 2.0],
+            [1.0, 4.0],
+            [-4.0, 4.0],
+        ]);
+        let truth = Pose2::new(0.4, -0.3, 0.25);
+        let reference = cast_scan(
+            &walls,
+            Pose2::IDENTITY,
+            -FRAC_PI_2,
+            1f64.to_radians(),
+            181,
+            20.0,
+        );
+        let scan = cast_scan(&walls, truth, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0);
+        let mut map = PointMap::new(PointMapOptions::default());
+        map.insert_scan(&reference, Pose2::IDENTITY);
+        let points: Vec<[f64; 2]> = points_with_normals(&scan, &PointMapOptions::default())
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect();
+        let found = align(&map, &points, Pose2::IDENTITY, &IcpOptions::default());
+        let found = found.unwrap_or(IcpMatch {
+            map_from_robot: Pose2::IDENTITY,
+            inlier_fraction: 0.0,
+            rms_m: 1.0,
+        });
+        let error = truth.inverse() * found.map_from_robot;
+        assert!(error.x_m.hypot(error.y_m) < 0.005, "{error:?}");
+        assert!(error.theta_rad.abs() < 0.1f64.to_radians(), "{error:?}");
+        assert!(found.inlier_fraction > 0.8, "{found:?}");
+    }
+
+    #[test]
+    fn an_empty_map_aligns_nothing() {
+        let map = PointMap::new(PointMapOptions::default());
+        assert!(align(&map, &[[1.0, 0.0]], Pose2::IDENTITY, &IcpOptions::default()).is_none());
+    }
+}
