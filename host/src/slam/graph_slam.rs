@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
@@ -64,6 +65,7 @@ pub struct GraphSlam {
     /// `map_from_local` as of the last optimisation.
     map_from_local: Pose2,
     closures_since_optimization: usize,
+    confirmation: ClosureConfirmation,
     stats: SlamStats,
 }
 
@@ -81,6 +83,7 @@ impl GraphSlam {
             finished: Vec::new(),
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
+            confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
             stats: SlamStats::default(),
             options,
         })
@@ -178,20 +181,31 @@ impl GraphSlam {
             let Some(closure) = self.closer.search(submap, reference, scan, guess) else {
                 continue;
             };
-            let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
-            let edge = Edge::new(
-                NodeId(submap.first_node()),
-                NodeId(node),
-                closure.pose_in_submap,
-                Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
-            )
-            .with_kernel(RobustKernel::Huber {
-                delta: self.options.loop_closure_huber_delta,
-            });
-            if self.graph.add_edge(edge).is_ok() {
-                self.stats.loop_closures += 1;
-                self.closures_since_optimization += 1;
+            let found = FoundClosure {
+                submap_first_node: submap.first_node(),
+                node,
+                pose_in_submap: closure.pose_in_submap,
+            };
+            for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
+                self.add_closure(confirmed);
             }
+        }
+    }
+
+    fn add_closure(&mut self, closure: FoundClosure) {
+        let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
+        let edge = Edge::new(
+            NodeId(closure.submap_first_node),
+            NodeId(closure.node),
+            closure.pose_in_submap,
+            Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
+        )
+        .with_kernel(RobustKernel::Huber {
+            delta: self.options.loop_closure_huber_delta,
+        });
+        if self.graph.add_edge(edge).is_ok() {
+            self.stats.loop_closures += 1;
+            self.closures_since_optimization += 1;
         }
     }
 

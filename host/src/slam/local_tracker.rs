@@ -5,8 +5,9 @@
 //! points are aligned by point-to-line ICP ([`super::icp`]) on the older active submap's
 //! points. If too few end points then lie on the submap's surfaces, the prediction was too far
 //! off for a local alignment: the exact raster matcher searches a wide window against the last
-//! scans, the alignment is run again from what it found and from the last pose, and the
-//! candidate with the most end points on the submap's surfaces wins.
+//! scans, around the prediction and around the last pose, the alignment is run again from
+//! what it found and from the last pose, and the candidate with the most end points on the
+//! submap's surfaces wins.
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
 
@@ -103,8 +104,12 @@ impl LocalTracker {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
             let mut guesses = vec![last_pose];
-            if let Ok(found) = self.wide_search.match_scans(&reference, scan, motion) {
-                guesses.push(last_pose * found.reference_from_new);
+            // Around the prediction, and around standing still: a robot that stops turning or
+            // driving leaves the prediction a whole step off.
+            for guess in [motion, Pose2::IDENTITY] {
+                if let Ok(found) = self.wide_search.match_scans(&reference, scan, guess) {
+                    guesses.push(last_pose * found.reference_from_new);
+                }
             }
             for guess in guesses {
                 if let Some(candidate) = self.align(&points, guess)

@@ -20,6 +20,7 @@
 //! [`GraphSlam`] runs the whole, [`GraphSlam::finish`] returns the optimised poses and
 //! [`SlamResult::global_grid`] draws the global map from them.
 
+pub mod closure_confirmation;
 mod graph_slam;
 pub mod icp;
 mod local_tracker;

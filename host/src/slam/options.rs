@@ -1,5 +1,6 @@
 //! The options of the SLAM pipeline, each with a default that works on the benchmark logs.
 
+use super::closure_confirmation::ConfirmationOptions;
 use super::icp::IcpOptions;
 use super::point_map::PointMapOptions;
 use crate::grid::SubmapOptions;
@@ -66,7 +67,7 @@ impl Default for SlamOptions {
             submap,
             point_map: PointMapOptions::default(),
             scans_per_submap: 30,
-            max_range_m: 30.0,
+            max_range_m: 50.0,
             min_range_m: 0.1,
             local: LocalTrackingOptions::default(),
             loop_closure: LoopClosureOptions::default(),
@@ -141,6 +142,8 @@ pub struct LoopClosureOptions {
     pub max_free_fraction: f64,
     /// Mean grid probability at the scan's end points, after alignment, that accepts a match.
     pub min_probability: f64,
+    /// How a closure is confirmed by a second one before it enters the pose graph.
+    pub confirmation: ConfirmationOptions,
     /// Submaps whose last scan is this recent (in scans) are not searched (local tracking
     /// covers them).
     pub min_scans_apart: usize,
@@ -161,6 +164,7 @@ impl Default for LoopClosureOptions {
             min_inlier_fraction: 0.8,
             max_free_fraction: 0.05,
             min_probability: 0.6,
+            confirmation: ConfirmationOptions::default(),
             min_scans_apart: 30,
         }
     }

@@ -15,8 +15,12 @@ use crate::scan_match::{Pose2, Scan};
 /// How end points become map points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointMapOptions {
-    /// Points of the same scan within this distance of an end point estimate its normal, metres.
+    /// Points of the same scan within this distance of an end point estimate its normal,
+    /// metres, plus [`Self::normal_radius_per_m`] per metre of the point's range (far beams
+    /// are farther apart, and a far wall is what fixes the pose along a corridor).
     pub normal_radius_m: f64,
+    /// Growth of the normal radius with range, metres per metre.
+    pub normal_radius_per_m: f64,
     /// Neighbouring beams on each side considered for the normal.
     pub normal_beams: usize,
     /// Largest ratio of the spread across the surface to the spread along it; above it the
@@ -30,6 +34,7 @@ impl Default for PointMapOptions {
     fn default() -> Self {
         PointMapOptions {
             normal_radius_m: 0.3,
+            normal_radius_per_m: 0.1,
             normal_beams: 3,
             max_flatness_ratio: 0.2,
             min_spacing_m: 0.03,
@@ -115,10 +120,11 @@ impl PointMap {
 /// robot frame.
 pub fn points_with_normals(scan: &Scan, options: &PointMapOptions) -> Vec<([f64; 2], [f64; 2])> {
     let points = scan.points_in_robot();
-    let radius_sq = options.normal_radius_m.powi(2);
     let mut out = Vec::with_capacity(points.len());
     for (index, point) in points.iter().enumerate() {
         let Some(center) = *point else { continue };
+        let range_m = center[0].hypot(center[1]);
+        let radius_sq = (options.normal_radius_m + options.normal_radius_per_m * range_m).powi(2);
         let first = index.saturating_sub(options.normal_beams);
         let last = (index + options.normal_beams).min(points.len() - 1);
         let neighbours: Vec<[f64; 2]> = points[first..=last]

@@ -1,0 +1,154 @@
+//! Loop closures confirmed by a second one before they enter the pose graph.
+//!
+//! One scan matched well in an earlier submap may still be a place that merely looks alike (a
+//! corridor, a row of identical offices). A closure is therefore held back until another scan,
+//! at most [`ConfirmationOptions::window_scans`] later, is found in the same submap at a pose
+//! that agrees with it: the two matches must imply the same motion between the two scans as
+//! local tracking measured, within [`ConfirmationOptions::max_translation_m`] and
+//! [`ConfirmationOptions::max_rotation_rad`]. Two coincidences that agree on the geometry are
+//! far less likely than one.
+
+use crate::scan_match::Pose2;
+
+/// How closures are confirmed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConfirmationOptions {
+    /// A closure waits this many scans at most for its confirmation.
+    pub window_scans: usize,
+    /// Largest disagreement in translation between the two matches and local tracking, metres.
+    pub max_translation_m: f64,
+    /// Largest disagreement in rotation, radians.
+    pub max_rotation_rad: f64,
+}
+
+impl Default for ConfirmationOptions {
+    fn default() -> Self {
+        ConfirmationOptions {
+            window_scans: 20,
+            max_translation_m: 0.3,
+            max_rotation_rad: 3f64.to_radians(),
+        }
+    }
+}
+
+/// A scan found in a submap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoundClosure {
+    /// The node whose pose is the submap's frame.
+    pub submap_first_node: usize,
+    /// The scan's node.
+    pub node: usize,
+    /// The scan's pose in the submap frame.
+    pub pose_in_submap: Pose2,
+}
+
+/// Closures waiting for confirmation. See the [module documentation](self).
+#[derive(Clone, Debug, Default)]
+pub struct ClosureConfirmation {
+    options: ConfirmationOptions,
+    /// Recent closures, and whether each is in the graph already.
+    recent: Vec<(FoundClosure, bool)>,
+}
+
+impl ClosureConfirmation {
+    /// Nothing pending.
+    pub fn new(options: ConfirmationOptions) -> Self {
+        ClosureConfirmation {
+            options,
+            recent: Vec::new(),
+        }
+    }
+
+    /// Offers `found`; `poses_in_local` are local tracking's poses of every node so far.
+    /// Returns the closures to add to the graph now: none while `found` is alone, else the
+    /// earlier closures it agrees with that are not in the graph yet, and `found` itself.
+    pub fn offer(&mut self, found: FoundClosure, poses_in_local: &[Pose2]) -> Vec<FoundClosure> {
+        let window = self.options.window_scans;
+        self.recent
+            .retain(|(c, _)| c.node + window >= found.node && c.node <= found.node);
+        let mut confirmed = Vec::new();
+        let mut agrees = false;
+        for (earlier, added) in &mut self.recent {
+            if earlier.submap_first_node != found.submap_first_node || earlier.node == found.node {
+                continue;
+            }
+            let (Some(a), Some(b)) = (
+                poses_in_local.get(earlier.node),
+                poses_in_local.get(found.node),
+            ) else {
+                continue;
+            };
+            let tracked = a.inverse() * *b;
+            let matched = earlier.pose_in_submap.inverse() * found.pose_in_submap;
+            let difference = tracked.inverse() * matched;
+            if difference.x_m.hypot(difference.y_m) > self.options.max_translation_m
+                || difference.theta_rad.abs() > self.options.max_rotation_rad
+            {
+                continue;
+            }
+            agrees = true;
+            if !*added {
+                *added = true;
+                confirmed.push(*earlier);
+            }
+        }
+        if agrees {
+            confirmed.push(found);
+        }
+        self.recent.push((found, agrees));
+        confirmed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn straight_line(n: usize) -> Vec<Pose2> {
+        (0..n).map(|i| Pose2::new(i as f64, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn a_single_closure_waits_and_an_agreeing_one_confirms_both() {
+        let poses = straight_line(60);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
+        let first = FoundClosure {
+            submap_first_node: 0,
+            node: 40,
+            pose_in_submap: Pose2::new(2.0, 1.0, 0.1),
+        };
+        assert!(confirmation.offer(first, &poses).is_empty());
+        // Five scans on, five metres on along the robot's heading in the submap.
+        let (sin, cos) = 0.1f64.sin_cos();
+        let second = FoundClosure {
+            submap_first_node: 0,
+            node: 45,
+            pose_in_submap: Pose2::new(2.0 + 5.0 * cos, 1.0 + 5.0 * sin, 0.1),
+        };
+        assert_eq!(confirmation.offer(second, &poses), vec![first, second]);
+    }
+
+    #[test]
+    fn a_disagreeing_or_late_closure_confirms_nothing() {
+        let poses = straight_line(100);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
+        let first = FoundClosure {
+            submap_first_node: 0,
+            node: 40,
+            pose_in_submap: Pose2::new(2.0, 1.0, 0.0),
+        };
+        assert!(confirmation.offer(first, &poses).is_empty());
+        let elsewhere = FoundClosure {
+            node: 45,
+            pose_in_submap: Pose2::new(2.0, 4.0, 0.0),
+            ..first
+        };
+        assert!(confirmation.offer(elsewhere, &poses).is_empty());
+        let late = FoundClosure {
+            node: 90,
+            pose_in_submap: Pose2::new(52.0, 1.0, 0.0),
+            ..first
+        };
+        assert!(confirmation.offer(late, &poses).is_empty());
+    }
+}
