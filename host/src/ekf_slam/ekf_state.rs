@@ -210,25 +210,148 @@ impl EkfState {
         self.landmark_count() - 1
     }
 
-    /// Appends entries with the given mean and covariance blocks: `cross` is the covariance of
-    /// the new entries with the existing state (rows: new entries), `own` their covariance.
-    pub(crate) fn append(&mut self, mean: &DVector<f64>, cross: &DMatrix<f64>, own: &DMatrix<f64>) {
+    /// Replaces the pose (entries 0..3) by the first three of `new` and appends the rest as
+    /// landmarks, in one pass over the covariance: the state `[pose, landmarks]` becomes
+    /// `[new pose, landmarks, new landmarks]`. `cross` is the covariance of `new` with the
+    /// current state (rows: new entries; its first three columns, the old pose's, are used
+    /// only through `own`), `own` the covariance of `new`. Used by map joining, where the new
+    /// entries are the local map composed with the old pose.
+    pub(crate) fn replace_pose_and_append(
+        &mut self,
+        new: &DVector<f64>,
+        cross: &DMatrix<f64>,
+        own: &DMatrix<f64>,
+    ) {
+        debug_assert_eq!(self.robot_dim, 3);
         let n = self.dim();
-        let k = mean.len();
-        let mut covariance = DMatrix::zeros(n + k, n + k);
+        let k = new.len();
+        debug_assert!(k >= 3 && (k - 3).is_multiple_of(2));
+        debug_assert_eq!(cross.shape(), (k, n));
+        debug_assert_eq!(own.shape(), (k, k));
+        let (landmarks, appended) = (n - 3, k - 3);
+        let dim = n + appended;
+        let mut covariance = DMatrix::zeros(dim, dim);
+        // Old landmarks keep their place.
         covariance
-            .view_mut((0, 0), (n, n))
-            .copy_from(&self.covariance);
-        covariance.view_mut((n, 0), (k, n)).copy_from(cross);
+            .view_mut((3, 3), (landmarks, landmarks))
+            .copy_from(&self.covariance.view((3, 3), (landmarks, landmarks)));
+        // The new pose and the new landmarks with the old landmarks.
+        let cross_pose = cross.view((0, 3), (3, landmarks));
+        let cross_appended = cross.view((3, 3), (appended, landmarks));
         covariance
-            .view_mut((0, n), (n, k))
-            .copy_from(&cross.transpose());
-        covariance.view_mut((n, n), (k, k)).copy_from(own);
+            .view_mut((0, 3), (3, landmarks))
+            .copy_from(&cross_pose);
+        covariance
+            .view_mut((3, 0), (landmarks, 3))
+            .copy_from(&cross_pose.transpose());
+        covariance
+            .view_mut((n, 3), (appended, landmarks))
+            .copy_from(&cross_appended);
+        covariance
+            .view_mut((3, n), (landmarks, appended))
+            .copy_from(&cross_appended.transpose());
+        // The new entries among themselves.
+        let new_rows = |index: usize| if index < 3 { index } else { n + index - 3 };
+        for c in 0..k {
+            for r in 0..k {
+                covariance[(new_rows(r), new_rows(c))] = own[(r, c)];
+            }
+        }
+        let mut mean = DVector::zeros(dim);
+        mean.rows_mut(0, 3).copy_from(&new.rows(0, 3));
+        mean.rows_mut(3, landmarks)
+            .copy_from(&self.mean.rows(3, landmarks));
+        mean.rows_mut(n, appended).copy_from(&new.rows(3, appended));
+        self.mean = mean;
         self.covariance = covariance;
-        let mut full = DVector::zeros(n + k);
-        full.rows_mut(0, n).copy_from(&self.mean);
-        full.rows_mut(n, k).copy_from(mean);
-        self.mean = full;
+        debug_assert_symmetric!(self.covariance);
+    }
+
+    /// Imposes that each pair `(duplicate, kept)` of landmarks is one point (the measurement
+    /// `duplicate − kept = 0` with noise `sigma_m` per axis), then removes the duplicates.
+    ///
+    /// The update is computed only for the entries that stay, in the symmetric form
+    /// `P⁺ = P − W Wᵀ` with `W = P Hᵀ L⁻ᵀ` (`L Lᵀ = S`): the directions a near-exact constraint
+    /// makes nearly singular are those of the duplicates, which are removed, so the form
+    /// needs no Joseph safeguard, and it costs one rank-`2p` product over the kept block
+    /// instead of two over the whole covariance.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the pairs' joint innovation covariance
+    /// is not positive definite; the state is then unchanged.
+    pub fn merge_landmarks(
+        &mut self,
+        pairs: &[(usize, usize)],
+        sigma_m: f64,
+    ) -> Result<(), EkfError> {
+        if pairs.is_empty() {
+            return Ok(());
+        }
+        let n = self.dim();
+        let m = 2 * pairs.len();
+        // P Hᵀ: column 2i + d is P[:, duplicate + d] − P[:, kept + d].
+        let mut p_ht = DMatrix::zeros(n, m);
+        let mut innovation = DVector::zeros(m);
+        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
+            for d in 0..2 {
+                let mut column = p_ht.column_mut(2 * i + d);
+                column.copy_from(&self.covariance.column(a + d));
+                column.axpy(-1.0, &self.covariance.column(b + d), 1.0);
+                innovation[2 * i + d] = self.mean[b + d] - self.mean[a + d];
+            }
+        }
+        // S = H P Hᵀ + R.
+        let mut s = DMatrix::identity(m, m) * sigma_m.powi(2);
+        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
+            for d in 0..2 {
+                for col in 0..m {
+                    s[(2 * i + d, col)] += p_ht[(a + d, col)] - p_ht[(b + d, col)];
+                }
+            }
+        }
+        s = (&s + s.transpose()) * 0.5;
+        let cholesky = s
+            .cholesky()
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+
+        let count = self.landmark_count();
+        let mut removed = vec![false; count];
+        for &(duplicate, _) in pairs {
+            if duplicate < count {
+                removed[duplicate] = true;
+            }
+        }
+        let keep: Vec<usize> = (0..self.robot_dim)
+            .chain((0..count).filter(|&i| !removed[i]).flat_map(|i| {
+                let o = self.robot_dim + 2 * i;
+                [o, o + 1]
+            }))
+            .collect();
+        // W = P Hᵀ L⁻ᵀ over the kept rows (m × kept, transposed), and the mean step K ν.
+        let p_ht_kept = p_ht.select_rows(keep.iter());
+        let whitened_innovation = cholesky
+            .l()
+            .solve_lower_triangular(&innovation)
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let w_t = cholesky
+            .l()
+            .solve_lower_triangular(&p_ht_kept.transpose())
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let mut mean = self.mean.select_rows(keep.iter());
+        mean.gemv_tr(1.0, &w_t, &whitened_innovation, 1.0);
+        mean[THETA] = wrap_angle_rad(mean[THETA]);
+        let mut covariance = self
+            .covariance
+            .select_rows(keep.iter())
+            .select_columns(keep.iter());
+        covariance.gemm_tr(-1.0, &w_t, &w_t, 1.0);
+        symmetrise(&mut covariance);
+        self.mean = mean;
+        self.covariance = covariance;
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
     }
 
     /// Removes the landmarks whose indices are listed (marginalising them out); the rest keep
@@ -320,15 +443,28 @@ impl EkfState {
         self.covariance.gemm(-1.0, &k_gain, &p_ht.transpose(), 1.0);
         self.covariance
             .gemm(1.0, &gain_residual, &k_gain.transpose(), 1.0);
-        for a in 0..n {
-            for b in 0..a {
-                let mean = 0.5 * (self.covariance[(a, b)] + self.covariance[(b, a)]);
-                self.covariance[(a, b)] = mean;
-                self.covariance[(b, a)] = mean;
-            }
-        }
+        symmetrise(&mut self.covariance);
         debug_assert_symmetric!(self.covariance);
         Ok(())
+    }
+}
+
+/// Replaces a square matrix by the mean of itself and its transpose, tile by tile so both
+/// halves are read from cache.
+fn symmetrise(matrix: &mut DMatrix<f64>) {
+    const TILE: usize = 32;
+    let n = matrix.nrows();
+    debug_assert_eq!(n, matrix.ncols());
+    for tile_col in (0..n).step_by(TILE) {
+        for tile_row in (tile_col..n).step_by(TILE) {
+            for col in tile_col..(tile_col + TILE).min(n) {
+                for row in tile_row.max(col + 1)..(tile_row + TILE).min(n) {
+                    let mean = 0.5 * (matrix[(row, col)] + matrix[(col, row)]);
+                    matrix[(row, col)] = mean;
+                    matrix[(col, row)] = mean;
+                }
+            }
+        }
     }
 }
 
@@ -398,5 +534,71 @@ mod tests {
         let expected = &f * before.view((0, 3), (3, 2));
         assert!((cross - expected).amax() < 1e-12);
         assert_eq!(state.landmark(0), [3.0, 4.0]);
+    }
+
+    /// A robot and four landmarks with a dense, well-conditioned covariance.
+    fn correlated_state() -> EkfState {
+        let n = 11;
+        let a = DMatrix::from_fn(n, n, |r, c| ((r * 7 + c * 3) % 11) as f64 * 0.05 - 0.2);
+        let covariance = &a * a.transpose() + DMatrix::identity(n, n) * 0.3;
+        let mean = DVector::from_fn(n, |r, _| r as f64 * 0.7 - 2.0);
+        EkfState::from_parts(mean, covariance, 3)
+    }
+
+    #[test]
+    fn merged_landmarks_match_the_constraint_update_then_removal() {
+        let pairs = [(3, 0), (2, 1)];
+        let sigma_m = 1e-3;
+        let mut merged = correlated_state();
+        merged.merge_landmarks(&pairs, sigma_m).unwrap();
+
+        // Reference: the same constraint through the general update, then removal.
+        let mut reference = correlated_state();
+        let n = reference.dim();
+        let mut h = DMatrix::zeros(4, n);
+        let mut innovation = DVector::zeros(4);
+        for (row, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (reference.landmark(duplicate), reference.landmark(kept));
+            for d in 0..2 {
+                h[(2 * row + d, reference.landmark_offset(duplicate) + d)] = 1.0;
+                h[(2 * row + d, reference.landmark_offset(kept) + d)] = -1.0;
+                innovation[2 * row + d] = b[d] - a[d];
+            }
+        }
+        let r = DMatrix::identity(4, 4) * sigma_m.powi(2);
+        reference.update(&innovation, &h, &r).unwrap();
+        reference.remove_landmarks(&[2, 3]);
+
+        assert_eq!(merged.landmark_count(), 2);
+        assert!((merged.mean() - reference.mean()).amax() < 1e-9);
+        assert!((merged.covariance() - reference.covariance()).amax() < 1e-9);
+        // The kept landmark now sits between its two records.
+        let before = correlated_state();
+        let fused = merged.landmark(0);
+        let (x0, x3) = (before.landmark(0)[0], before.landmark(3)[0]);
+        assert!(fused[0] > x0.min(x3) && fused[0] < x0.max(x3));
+    }
+
+    #[test]
+    fn pose_replaced_and_landmarks_appended_in_place() {
+        let mut state = correlated_state();
+        let before = state.clone();
+        let n = before.dim();
+        let new = DVector::from_vec(vec![10.0, 11.0, 0.2, 12.0, 13.0]);
+        let cross = DMatrix::from_fn(5, n, |r, c| 0.01 * (r + c) as f64);
+        let own = DMatrix::from_fn(5, 5, |r, c| if r == c { 2.0 } else { 0.1 });
+        state.replace_pose_and_append(&new, &cross, &own);
+        assert_eq!(state.landmark_count(), 5);
+        assert_eq!(state.pose(), [10.0, 11.0, 0.2]);
+        assert_eq!(state.landmark(4), [12.0, 13.0]);
+        assert_eq!(state.landmark(1), before.landmark(1));
+        let p = state.covariance();
+        // Old landmarks untouched, new pose with new landmark from `own`, new pose with an
+        // old landmark from `cross`.
+        assert_eq!(p[(5, 6)], before.covariance()[(5, 6)]);
+        assert_eq!(p[(0, n)], own[(0, 3)]);
+        assert_eq!(p[(1, 4)], cross[(1, 4)]);
+        assert_eq!(p[(n + 1, 3)], cross[(4, 3)]);
+        assert_eq!(p[(n + 1, n + 1)], 2.0);
     }
 }

@@ -125,7 +125,6 @@ impl GlobalMap {
     ) -> Result<JoinReport, EkfError> {
         let (local_state, local_info) = local.into_parts();
         let base = self.state.pose();
-        let n_global = self.state.dim();
         let n_local = local_state.dim();
         let local_robot_dim = local_state.robot_dim();
         let count = local_state.landmark_count();
@@ -154,21 +153,8 @@ impl GlobalMap {
         let p_base = self.state.covariance().view((0, 0), (3, 3)).into_owned();
         let own = &d_base * p_base * d_base.transpose()
             + &d_local * local_state.covariance() * d_local.transpose();
-        self.state.append(&mean, &cross, &own);
-
-        // Move the new robot to the front in place of the old base: [r', M, L'].
-        let order: Vec<usize> = (n_global..n_global + 3)
-            .chain(3..n_global)
-            .chain(n_global + 3..n_global + k)
-            .collect();
-        self.state = EkfState::from_parts(
-            self.state.mean().select_rows(order.iter()),
-            self.state
-                .covariance()
-                .select_rows(order.iter())
-                .select_columns(order.iter()),
-            3,
-        );
+        // The new robot takes the old base's place: [r', M, L'].
+        self.state.replace_pose_and_append(&mean, &cross, &own);
         let old_count = self.info.len();
         let joined_map = self.bases_in_map.len() - 1;
         self.info.extend(local_info);
@@ -257,32 +243,13 @@ impl GlobalMap {
         if pairs.is_empty() {
             return Ok(());
         }
-        let n = self.state.dim();
-        let m = 2 * pairs.len();
-        let mut h = DMatrix::zeros(m, n);
-        let mut innovation = DVector::zeros(m);
-        for (row, &(new, old)) in pairs.iter().enumerate() {
-            let (a, b) = (self.state.landmark(new), self.state.landmark(old));
-            innovation[2 * row] = b[0] - a[0];
-            innovation[2 * row + 1] = b[1] - a[1];
-            let (cn, co) = (
-                self.state.landmark_offset(new),
-                self.state.landmark_offset(old),
-            );
-            for d in 0..2 {
-                h[(2 * row + d, cn + d)] = 1.0;
-                h[(2 * row + d, co + d)] = -1.0;
-            }
-        }
-        let r = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
-        self.state.update(&innovation, &h, &r)?;
+        self.state.merge_landmarks(pairs, FUSION_SIGMA_M)?;
         let mut removed: Vec<usize> = pairs.iter().map(|&(new, _)| new).collect();
         for &(new, old) in pairs {
             let record = self.info[new];
             self.info[old].merge(&record);
         }
         removed.sort_unstable();
-        self.state.remove_landmarks(&removed);
         let keep = |index: usize| removed.binary_search(&index).is_err();
         self.info = (0..self.info.len())
             .filter(|&i| keep(i))
