@@ -346,8 +346,10 @@ impl EkfState {
             .covariance
             .select_rows(keep.iter())
             .select_columns(keep.iter());
-        covariance.gemm_tr(-1.0, &w_t, &w_t, 1.0);
-        symmetrise(&mut covariance);
+        // `gemm_tr` would take dot products column by column; the explicit transpose lets
+        // `gemm` use its blocked kernel. Entries (i, j) and (j, i) of `W Wᵀ` sum the same
+        // products in the same order, so the result stays exactly symmetric.
+        covariance.gemm(-1.0, &w_t.transpose(), &w_t, 1.0);
         self.mean = mean;
         self.covariance = covariance;
         debug_assert_symmetric!(self.covariance);

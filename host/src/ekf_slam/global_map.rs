@@ -204,6 +204,22 @@ impl GlobalMap {
                 if innovation.norm() > 20.0 {
                     continue;
                 }
+                // Exact cheap rejection: νᵀ S⁻¹ ν ≥ |ν|² / λ_max(S) ≥ |ν|² / trace(S), and the
+                // trace takes six entries of the covariance where S takes sixteen.
+                let (cn, co) = (
+                    self.state.landmark_offset(new),
+                    self.state.landmark_offset(old),
+                );
+                let trace = (0..2)
+                    .map(|d| {
+                        covariance[(cn + d, cn + d)] + covariance[(co + d, co + d)]
+                            - 2.0 * covariance[(cn + d, co + d)]
+                    })
+                    .sum::<f64>()
+                    + noise.trace();
+                if innovation.norm_squared() > gate * trace {
+                    continue;
+                }
                 if !self.info[old].diameter_compatible(
                     self.info[new].diameter_m,
                     options.diameter_tolerance_m,
@@ -213,11 +229,11 @@ impl GlobalMap {
                 }
                 let jacobian = vec![
                     JacobianBlock {
-                        column: self.state.landmark_offset(new),
+                        column: cn,
                         matrix: DMatrix::identity(2, 2),
                     },
                     JacobianBlock {
-                        column: self.state.landmark_offset(old),
+                        column: co,
                         matrix: -DMatrix::identity(2, 2),
                     },
                 ];
