@@ -31,6 +31,9 @@ pub enum EkfError {
         /// Entries of the state.
         state_dim: usize,
     },
+    /// A measurement in the map frame reached a local map that does not estimate its base.
+    #[error("the local map holds no estimate of its base frame")]
+    MissingBase,
 }
 
 /// Mean and full covariance of the robot-and-landmarks state.
@@ -265,6 +268,95 @@ impl EkfState {
         self.mean = mean;
         self.covariance = covariance;
         debug_assert_symmetric!(self.covariance);
+    }
+
+    /// Appends `mean.len()` entries to the robot block (before the landmarks), independent of
+    /// everything else, with covariance `covariance`. Returns the offset of the first one.
+    pub(crate) fn extend_robot(&mut self, mean: &DVector<f64>, covariance: &DMatrix<f64>) -> usize {
+        let (n, r, e) = (self.dim(), self.robot_dim, mean.len());
+        let landmarks = n - r;
+        let mut full_mean = DVector::zeros(n + e);
+        full_mean.rows_mut(0, r).copy_from(&self.mean.rows(0, r));
+        full_mean.rows_mut(r, e).copy_from(mean);
+        full_mean
+            .rows_mut(r + e, landmarks)
+            .copy_from(&self.mean.rows(r, landmarks));
+        let mut full = DMatrix::zeros(n + e, n + e);
+        let moved = |index: usize| if index < r { index } else { index + e };
+        for c in 0..n {
+            for row in 0..n {
+                full[(moved(row), moved(c))] = self.covariance[(row, c)];
+            }
+        }
+        full.view_mut((r, r), (e, e)).copy_from(covariance);
+        self.mean = full_mean;
+        self.covariance = full;
+        self.robot_dim = r + e;
+        r
+    }
+
+    /// Re-expresses three entries holding a pose (`offset..offset + 3`) through
+    /// `new_from_old`: the mean is composed, the covariance rotated.
+    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: [f64; 3]) {
+        let old = [
+            self.mean[offset],
+            self.mean[offset + 1],
+            self.mean[offset + 2],
+        ];
+        let (new, _, rotation) = super::frames::compose_pose(new_from_old, old);
+        self.mean.rows_mut(offset, 3).copy_from_slice(&new);
+        let n = self.dim();
+        let rows = rotation * self.covariance.view((offset, 0), (3, n));
+        self.covariance
+            .view_mut((offset, 0), (3, n))
+            .copy_from(&rows);
+        let columns = self.covariance.view((0, offset), (n, 3)) * rotation.transpose();
+        self.covariance
+            .view_mut((0, offset), (n, 3))
+            .copy_from(&columns);
+        symmetrise(&mut self.covariance);
+    }
+
+    /// Replaces the marginal of the pose (entries 0..3) by `pose` / `pose_covariance` and
+    /// moves every other entry by its linear regression on the pose: the rest of the state is
+    /// taken as unchanged given the pose. This is how information gathered about the pose
+    /// elsewhere (a local map that measured its base) flows into the state:
+    /// `x⁺ = x + G Δ`, `P⁺ = P + G (P_b⁺ − P_b) Gᵀ` with `G = P_{·b} P_b⁻¹`.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the pose's current covariance is not
+    /// positive definite (nothing to regress on); the state is then unchanged.
+    pub(crate) fn set_pose_marginal(
+        &mut self,
+        pose: [f64; 3],
+        pose_covariance: &Matrix3<f64>,
+    ) -> Result<(), EkfError> {
+        let n = self.dim();
+        let cholesky = self
+            .pose_covariance()
+            .cholesky()
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        // Gᵀ = P_b⁻¹ P_{b·} (3 × n).
+        let g_t = cholesky.solve(&self.covariance.rows(0, 3).into_owned());
+        let mut delta = nalgebra::Vector3::new(
+            pose[0] - self.mean[0],
+            pose[1] - self.mean[1],
+            pose[2] - self.mean[2],
+        );
+        delta[2] = wrap_angle_rad(delta[2]);
+        self.mean.gemv_tr(1.0, &g_t, &delta, 1.0);
+        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
+        let change = pose_covariance - self.pose_covariance();
+        let a = g_t.transpose() * change; // n × 3
+        self.covariance.gemm(1.0, &a, &g_t, 1.0);
+        symmetrise(&mut self.covariance);
+        // The pose block is set exactly (rounding aside).
+        self.covariance
+            .view_mut((0, 0), (3, 3))
+            .copy_from(pose_covariance);
+        debug_assert_eq!(self.dim(), n);
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
     }
 
     /// Imposes that each pair `(duplicate, kept)` of landmarks is one point (the measurement
@@ -602,5 +694,35 @@ mod tests {
         assert_eq!(p[(1, 4)], cross[(1, 4)]);
         assert_eq!(p[(n + 1, 3)], cross[(4, 3)]);
         assert_eq!(p[(n + 1, n + 1)], 2.0);
+    }
+
+    #[test]
+    fn pose_marginal_carries_a_pose_measurement_to_the_whole_state() {
+        // Measuring the pose directly (linear) must give the same state as first updating the
+        // pose's marginal alone and then regressing the rest on it.
+        let mut reference = correlated_state();
+        let h = DMatrix::from_fn(3, reference.dim(), |r, c| if r == c { 1.0 } else { 0.0 });
+        let r = DMatrix::from_diagonal(&DVector::from_vec(vec![0.2, 0.3, 0.05]));
+        let innovation = DVector::from_vec(vec![0.4, -0.3, 0.1]);
+        let mut pose_only = EkfState::new(
+            DVector::from_row_slice(&reference.pose()),
+            DMatrix::from_column_slice(3, 3, reference.pose_covariance().as_slice()),
+        );
+        pose_only
+            .update(&innovation, &DMatrix::identity(3, 3), &r)
+            .unwrap();
+        let mut regressed = reference.clone();
+        regressed
+            .set_pose_marginal(pose_only.pose(), &pose_only.pose_covariance())
+            .unwrap();
+        reference.update(&innovation, &h, &r).unwrap();
+        assert!((regressed.mean() - reference.mean()).amax() < 1e-9);
+        assert!((regressed.covariance() - reference.covariance()).amax() < 1e-9);
+        // An exactly known pose has nothing to regress on.
+        let mut exact = EkfState::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        assert_eq!(
+            exact.set_pose_marginal([1.0, 0.0, 0.0], &Matrix3::identity()),
+            Err(EkfError::CovarianceNotPositiveDefinite)
+        );
     }
 }

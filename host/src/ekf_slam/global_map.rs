@@ -9,6 +9,14 @@
 //! paired with the global ones by the individual gate and JCBB on `l_new − l_old`, each pair
 //! is imposed as the measurement `l_new − l_old = 0` and the duplicate is removed. Only the
 //! pairing update touches the whole covariance (O(N² p) for `p` pairs).
+//!
+//! A local map that measured its base in the map frame (GPS) carries its own estimate `b_L`
+//! of the base, started from the global one and independent of the rest given the base.
+//! Joining it first moves the global map onto that estimate: the base's marginal becomes
+//! `b_L`'s and every global entry moves by its regression on the base
+//! ([`EkfState`]'s `set_pose_marginal`); the local map's entries are then composed with `b_L`,
+//! their covariance with the global map passing through the base:
+//! `Cov(new, global) = J P_{L,b} P_{b_L}⁻¹ Cov(b, global)`.
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
@@ -123,7 +131,19 @@ impl GlobalMap {
         options: &AssociationOptions,
         recognised: &[(usize, usize)],
     ) -> Result<JoinReport, EkfError> {
-        let (local_state, local_info) = local.into_parts();
+        let parts = local.into_parts();
+        let (local_state, local_info) = (parts.state, parts.info);
+        // What the local map learnt about its base flows into the global map first; if the
+        // global base has no uncertainty to regress on, the local estimate is not used.
+        let base_offset = parts.base_offset.filter(|&offset| {
+            let mean = local_state.mean();
+            let base = [mean[offset], mean[offset + 1], mean[offset + 2]];
+            let covariance = local_state
+                .covariance()
+                .fixed_view::<3, 3>(offset, offset)
+                .into_owned();
+            self.state.set_pose_marginal(base, &covariance).is_ok()
+        });
         let base = self.state.pose();
         let n_local = local_state.dim();
         let local_robot_dim = local_state.robot_dim();
@@ -149,10 +169,27 @@ impl GlobalMap {
                 .copy_from(&d_l);
         }
         let p_base_all = self.state.covariance().rows(0, 3).into_owned();
-        let cross = &d_base * &p_base_all;
         let p_base = self.state.covariance().view((0, 0), (3, 3)).into_owned();
-        let own = &d_base * p_base * d_base.transpose()
-            + &d_local * local_state.covariance() * d_local.transpose();
+        let (cross, own) = match base_offset {
+            Some(offset) => {
+                // The base is a local entry: J covers it, and the new entries see the global
+                // map through their regression on it.
+                d_local.view_mut((0, offset), (k, 3)).copy_from(&d_base);
+                let p_local = local_state.covariance();
+                let own = &d_local * p_local * d_local.transpose();
+                let local_with_base = &d_local * p_local.columns(offset, 3);
+                let through_base = match p_base.clone().cholesky() {
+                    Some(cholesky) => cholesky.solve(&local_with_base.transpose()).transpose(),
+                    None => d_base.clone(),
+                };
+                (through_base * &p_base_all, own)
+            }
+            None => (
+                &d_base * &p_base_all,
+                &d_base * p_base * d_base.transpose()
+                    + &d_local * local_state.covariance() * d_local.transpose(),
+            ),
+        };
         // The new robot takes the old base's place: [r', M, L'].
         self.state.replace_pose_and_append(&mean, &cross, &own);
         let old_count = self.info.len();
