@@ -434,10 +434,7 @@ impl EkfState {
         let mut mean = self.mean.select_rows(keep.iter());
         mean.gemv_tr(1.0, &w_t, &whitened_innovation, 1.0);
         mean[THETA] = wrap_angle_rad(mean[THETA]);
-        let mut covariance = self
-            .covariance
-            .select_rows(keep.iter())
-            .select_columns(keep.iter());
+        let mut covariance = gather(&self.covariance, &keep);
         // `gemm_tr` would take dot products column by column; the explicit transpose lets
         // `gemm` use its blocked kernel. Entries (i, j) and (j, i) of `W Wᵀ` sum the same
         // products in the same order, so the result stays exactly symmetric.
@@ -468,10 +465,7 @@ impl EkfState {
             }))
             .collect();
         self.mean = self.mean.select_rows(keep.iter());
-        self.covariance = self
-            .covariance
-            .select_rows(keep.iter())
-            .select_columns(keep.iter());
+        self.covariance = gather(&self.covariance, &keep);
     }
 
     /// The innovation covariance `H P Hᵀ + R`.
@@ -541,6 +535,21 @@ impl EkfState {
         debug_assert_symmetric!(self.covariance);
         Ok(())
     }
+}
+
+/// The rows and columns `keep` of `matrix`, copied in one pass (selecting rows and then
+/// columns would copy twice).
+fn gather(matrix: &DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
+    let k = keep.len();
+    let mut out = DMatrix::zeros(k, k);
+    for (to_col, &from_col) in keep.iter().enumerate() {
+        let source = matrix.column(from_col);
+        let mut target = out.column_mut(to_col);
+        for (to_row, &from_row) in keep.iter().enumerate() {
+            target[to_row] = source[from_row];
+        }
+    }
+    out
 }
 
 /// Replaces a square matrix by the mean of itself and its transpose, tile by tile so both
