@@ -14,7 +14,7 @@
 //! ([`super::GlobalMap::join`]; Piniés and Tardós, "Large-scale SLAM building conditionally
 //! independent local maps", IEEE T-RO 2008).
 
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::transform_point;
@@ -22,7 +22,7 @@ use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::motion_model::MotionModel;
 use super::options::AssociationOptions;
-use super::range_bearing::{LandmarkObservation, RangeBearingModel};
+use super::range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
 
 /// What one batch of observations did to the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -53,6 +53,29 @@ pub(crate) struct LocalMapParts {
     pub info: Vec<LandmarkInfo>,
     /// Offset of the base's pose in the robot block, when estimated.
     pub base_offset: Option<usize>,
+}
+
+/// Squared Mahalanobis distance of a range-bearing pairing with landmark entries at
+/// `landmark_offset`, from the pose and landmark blocks of `covariance` (fixed-size, no
+/// allocation); `None` when the innovation covariance is singular.
+fn pairing_distance2(
+    covariance: &DMatrix<f64>,
+    predicted: &PredictedObservation,
+    landmark_offset: usize,
+    innovation: &Vector2<f64>,
+    noise: &Matrix2<f64>,
+) -> Option<f64> {
+    let p_pp = covariance.fixed_view::<3, 3>(0, 0);
+    let p_pl = covariance.fixed_view::<3, 2>(0, landmark_offset);
+    let p_ll = covariance.fixed_view::<2, 2>(landmark_offset, landmark_offset);
+    let (h_p, h_l) = (&predicted.d_pose, &predicted.d_landmark);
+    let cross = h_p * p_pl * h_l.transpose();
+    let s = h_p * p_pp * h_p.transpose()
+        + cross
+        + cross.transpose()
+        + h_l * p_ll * h_l.transpose()
+        + noise;
+    Some((innovation.transpose() * s.try_inverse()? * innovation)[0])
 }
 
 impl LocalMap {
@@ -176,6 +199,27 @@ impl LocalMap {
                 if (observation.range_m - predicted.z[0]).abs() > 10.0 {
                     continue;
                 }
+                let innovation = RangeBearingModel::innovation(observation, &predicted);
+                // The distance with fixed-size blocks first; the candidate (with its
+                // allocated Jacobian blocks) only for pairings that pass.
+                let Some(distance2) = pairing_distance2(
+                    covariance,
+                    &predicted,
+                    self.state.landmark_offset(j),
+                    &innovation,
+                    &noise,
+                ) else {
+                    continue;
+                };
+                nearest_distance2[i] = nearest_distance2[i].min(distance2);
+                let diameter_ok = info.diameter_compatible(
+                    observation.diameter_m,
+                    options.diameter_tolerance_m,
+                    options.diameter_tolerance_fraction,
+                );
+                if distance2 >= gate || !diameter_ok {
+                    continue;
+                }
                 let jacobian = vec![
                     JacobianBlock {
                         column: 0,
@@ -186,19 +230,9 @@ impl LocalMap {
                         matrix: DMatrix::from_column_slice(2, 2, predicted.d_landmark.as_slice()),
                     },
                 ];
-                let innovation = RangeBearingModel::innovation(observation, &predicted);
-                let Some(candidate) =
+                if let Some(candidate) =
                     PairingCandidate::new(j, innovation, jacobian, covariance, &noise)
-                else {
-                    continue;
-                };
-                nearest_distance2[i] = nearest_distance2[i].min(candidate.distance2);
-                let diameter_ok = info.diameter_compatible(
-                    observation.diameter_m,
-                    options.diameter_tolerance_m,
-                    options.diameter_tolerance_fraction,
-                );
-                if candidate.distance2 < gate && diameter_ok {
+                {
                     list.push(candidate);
                 }
             }
