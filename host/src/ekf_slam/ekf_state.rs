@@ -233,11 +233,11 @@ impl EkfState {
         debug_assert_eq!(own.shape(), (k, k));
         let (landmarks, appended) = (n - 3, k - 3);
         let dim = n + appended;
-        let mut covariance = DMatrix::zeros(dim, dim);
-        // Old landmarks keep their place.
-        covariance
-            .view_mut((3, 3), (landmarks, landmarks))
-            .copy_from(&self.covariance.view((3, 3), (landmarks, landmarks)));
+        // Grown in place (the old landmarks keep their place and their entries; the buffer is
+        // reallocated, not copied into fresh zeroed memory): every entry of the old pose's rows
+        // and columns and of the new rows and columns is written below.
+        let mut covariance = std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0));
+        covariance.resize_mut(dim, dim, 0.0);
         // The new pose and the new landmarks with the old landmarks.
         let cross_pose = cross.view((0, 3), (3, landmarks));
         let cross_appended = cross.view((3, 3), (appended, landmarks));
@@ -434,7 +434,10 @@ impl EkfState {
         let mut mean = self.mean.select_rows(keep.iter());
         mean.gemv_tr(1.0, &w_t, &whitened_innovation, 1.0);
         mean[THETA] = wrap_angle_rad(mean[THETA]);
-        let mut covariance = gather(&self.covariance, &keep);
+        let mut covariance = gather(
+            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
+            &keep,
+        );
         // `gemm_tr` would take dot products column by column; the explicit transpose lets
         // `gemm` use its blocked kernel. Entries (i, j) and (j, i) of `W Wᵀ` sum the same
         // products in the same order, so the result stays exactly symmetric.
@@ -465,7 +468,10 @@ impl EkfState {
             }))
             .collect();
         self.mean = self.mean.select_rows(keep.iter());
-        self.covariance = gather(&self.covariance, &keep);
+        self.covariance = gather(
+            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
+            &keep,
+        );
     }
 
     /// The innovation covariance `H P Hᵀ + R`.
@@ -537,19 +543,22 @@ impl EkfState {
     }
 }
 
-/// The rows and columns `keep` of `matrix`, copied in one pass (selecting rows and then
-/// columns would copy twice).
-fn gather(matrix: &DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
+/// The rows and columns `keep` (increasing) of the square `matrix`, compacted in its own
+/// buffer in one pass: selecting rows and then columns would copy twice, into fresh memory.
+fn gather(matrix: DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
+    let n = matrix.nrows();
     let k = keep.len();
-    let mut out = DMatrix::zeros(k, k);
+    debug_assert!(keep.windows(2).all(|w| w[0] < w[1]) && keep.last().is_none_or(|&l| l < n));
+    let mut data: Vec<f64> = matrix.data.into();
+    // Entry (to_row, to_col) goes to to_col·k + to_row ≤ from_col·n + from_row, where it
+    // comes from: walking forward never overwrites an entry still to be read.
     for (to_col, &from_col) in keep.iter().enumerate() {
-        let source = matrix.column(from_col);
-        let mut target = out.column_mut(to_col);
         for (to_row, &from_row) in keep.iter().enumerate() {
-            target[to_row] = source[from_row];
+            data[to_col * k + to_row] = data[from_col * n + from_row];
         }
     }
-    out
+    data.truncate(k * k);
+    DMatrix::from_vec(k, k, data)
 }
 
 /// Replaces a square matrix by the mean of itself and its transpose, tile by tile so both
