@@ -204,7 +204,8 @@ enum Command {
     /// Writes OUT/trajectory.tsv (`t_s x_m y_m theta_rad` after each scan; with GPS fused,
     /// in the frame of gps.dat), OUT/landmarks.tsv and OUT/summary.json (`wall_s`, `steps`,
     /// `landmarks`, `local_maps`, `loop_closures`, `rms_to_gps_m`: directly with GPS fused,
-    /// after the best rigid alignment with `--no-gps`, and step times by map size).
+    /// after the best rigid alignment with `--no-gps`; `rms_to_gps_without_jumps_m`: the same
+    /// without the receiver's jumps; and step times by map size).
     ReplayVictoria {
         /// The `rfs_slam_ascii` directory (inputs.dat, gps.dat, measurements.dat).
         dir: PathBuf,
@@ -449,10 +450,13 @@ fn replay_victoria(
     let summary = hil_sim::victoria_slam::replay_victoria(&options)?;
     println!("{}", serde_json::to_string_pretty(&summary)?);
     eprintln!(
-        "hil-sim: {} scans in {:.3} s, RMS to GPS {:.2} m; outputs in {}",
+        "hil-sim: {} scans in {:.3} s, RMS to GPS {:.2} m ({:.2} m without its {} jumps); \
+         outputs in {}",
         summary.scans,
         summary.wall_s,
         summary.rms_to_gps_m,
+        summary.rms_to_gps_without_jumps_m,
+        summary.gps_jumps,
         options.out.display()
     );
     Ok(())

@@ -47,6 +47,9 @@ pub const GPS_ALIGNMENT_SPAN_M: f64 = 30.0;
 /// with 0.95 m the first 300 s map 227 trees where 3.78 m maps 152, and the laser's track lies
 /// 1.4 m RMS from the GPS where the axle's lies 4.1 m.
 pub const LASER_AHEAD_M: f64 = 3.78;
+/// A fix that lies further from both its neighbours than this speed could carry the car is a
+/// receiver jump, metres per second (twice the run's top wheel speed, 6.6 m/s).
+pub const GPS_JUMP_SPEED_MPS: f64 = 15.0;
 /// Width of the map-size classes of the step-time table, landmarks.
 const SIZE_CLASS_LANDMARKS: usize = 50;
 
@@ -160,6 +163,11 @@ pub struct VictoriaSlamSummary {
     pub rms_to_gps_m: f64,
     /// Median of the same distances, metres.
     pub median_to_gps_m: f64,
+    /// Fixes of `gps.dat` that are receiver jumps by their own neighbours (further from both
+    /// the previous and the next fix than [`GPS_JUMP_SPEED_MPS`] allows), whatever the filter.
+    pub gps_jumps: usize,
+    /// RMS distance as `rms_to_gps_m`, over the fixes that are not jumps, metres.
+    pub rms_to_gps_without_jumps_m: f64,
     /// Final speed scale and steering offset (radians) of the online calibration.
     pub calibration: Option<[f64; 2]>,
     /// The filter's counters.
@@ -393,6 +401,27 @@ fn position_at(trajectory: &[StampedPose], t_s: f64) -> Option<[f64; 2]> {
     ])
 }
 
+/// Whether each fix is a receiver jump: further from both its previous and its next fix than
+/// the car could drive at [`GPS_JUMP_SPEED_MPS`] (a first or last fix is judged by its one
+/// neighbour).
+fn receiver_jumps(gps: &[LocalGpsFix]) -> Vec<bool> {
+    let too_fast = |a: &LocalGpsFix, b: &LocalGpsFix| {
+        let dt_s = (b.t_s - a.t_s).abs();
+        (b.x_m - a.x_m).hypot(b.y_m - a.y_m) > GPS_JUMP_SPEED_MPS * dt_s
+    };
+    (0..gps.len())
+        .map(|i| {
+            let before = i.checked_sub(1).map(|p| too_fast(&gps[p], &gps[i]));
+            let after = gps.get(i + 1).map(|next| too_fast(&gps[i], next));
+            match (before, after) {
+                (Some(a), Some(b)) => a && b,
+                (Some(one), None) | (None, Some(one)) => one,
+                (None, None) => false,
+            }
+        })
+        .collect()
+}
+
 /// RMS and median distance of the trajectory to the fixes, after aligning it when `align`.
 fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) -> (usize, f64, f64) {
     let pairs: Vec<AlignmentPair> = gps
@@ -540,6 +569,16 @@ fn write_outputs(
 
     let (gps_compared, rms_to_gps_m, median_to_gps_m) =
         error_to_gps(&run.trajectory, &park.gps, !options.use_gps);
+    let jumps = receiver_jumps(&park.gps);
+    let steady: Vec<LocalGpsFix> = park
+        .gps
+        .iter()
+        .zip(&jumps)
+        .filter(|(_, jump)| !**jump)
+        .map(|(fix, _)| *fix)
+        .collect();
+    let (_, rms_to_gps_without_jumps_m, _) =
+        error_to_gps(&run.trajectory, &steady, !options.use_gps);
     let summary = VictoriaSlamSummary {
         wall_s: run.wall_s,
         steps: run.steps,
@@ -553,6 +592,8 @@ fn write_outputs(
         gps_compared,
         rms_to_gps_m,
         median_to_gps_m,
+        gps_jumps: jumps.iter().filter(|&&jump| jump).count(),
+        rms_to_gps_without_jumps_m,
         calibration,
         filter: stats.into(),
         step_time_by_map_size: step_time_classes(&run.step_times),
@@ -564,4 +605,26 @@ fn write_outputs(
     })?;
     fs::write(&path, json + "\n").map_err(write_error(&path))?;
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_lone_far_fix_is_a_jump_and_a_gap_is_not() {
+        let fix = |t_s: f64, x_m: f64| LocalGpsFix { t_s, x_m, y_m: 0.0 };
+        let gps = [
+            fix(0.0, 0.0),
+            fix(0.2, 0.6),
+            fix(0.4, 140.0), // 700 m/s from both neighbours
+            fix(0.6, 1.8),
+            fix(40.0, 120.0), // 40 s outage at 3 m/s: plausible
+            fix(40.2, 120.6),
+        ];
+        assert_eq!(
+            receiver_jumps(&gps),
+            [false, false, true, false, false, false]
+        );
+    }
 }

@@ -47,6 +47,11 @@
 
 use std::collections::{HashMap, HashSet};
 
+/// Hash maps keyed by small integer tuples, hashed with `foldhash` (fixed seed, so runs
+/// repeat exactly): voting inserts hundreds of thousands of keys per local map, where the
+/// standard library's SipHash dominates the cost.
+type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
+
 use super::landmark_info::LandmarkInfo;
 use super::submap_slam::MappedLandmark;
 use crate::scan_match::wrap_angle_rad;
@@ -179,9 +184,9 @@ pub struct Constellation {
     /// By old (global) landmark index; `None` when not indexed.
     landmarks: Vec<Option<IndexedLandmark>>,
     /// Spatial hash of indexed positions.
-    cells: HashMap<(i64, i64), Vec<usize>>,
+    cells: FastMap<(i64, i64), Vec<usize>>,
     /// Pairs by quantised length.
-    pairs_by_length: HashMap<i64, Vec<IndexedPair>>,
+    pairs_by_length: FastMap<i64, Vec<IndexedPair>>,
     indexed_count: usize,
     next_generation: u64,
     /// Landmarks dropped or re-indexed since the pair index was last rebuilt.
@@ -194,8 +199,8 @@ impl Constellation {
         Constellation {
             options,
             landmarks: Vec::new(),
-            cells: HashMap::new(),
-            pairs_by_length: HashMap::new(),
+            cells: FastMap::default(),
+            pairs_by_length: FastMap::default(),
             indexed_count: 0,
             next_generation: 0,
             dropped_since_rebuild: 0,
@@ -320,13 +325,13 @@ impl Constellation {
     }
 
     /// Hypotheses from every local pair against the old pairs of the same length, binned.
-    fn vote(&self, local: &[LocalPoint]) -> HashMap<(i64, i64, i64), Vote> {
+    fn vote(&self, local: &[LocalPoint]) -> FastMap<(i64, i64, i64), Vote> {
         let options = &self.options;
         let tolerance_m = options.distance_tolerance_m;
         let slack_m = 2.0 * self.reindex_shift_m();
         let position_bin_m = VOTE_POSITION_BIN_FACTOR * options.inlier_distance_m;
         let centroid = centroid_in_map(local.iter().map(|point| point.position_in_map));
-        let mut votes: HashMap<(i64, i64, i64), Vote> = HashMap::new();
+        let mut votes: FastMap<(i64, i64, i64), Vote> = FastMap::default();
         for (i, j, length_m) in self.local_pairs(local) {
             let (first, second) = (&local[i], &local[j]);
             let low = self.length_key(length_m - tolerance_m - slack_m);
@@ -573,7 +578,7 @@ impl Constellation {
 
     /// Rebuilds the length index from the indexed landmarks, dropping stale pairs.
     fn rebuild_pairs(&mut self) {
-        let mut pairs_by_length: HashMap<i64, Vec<IndexedPair>> = HashMap::new();
+        let mut pairs_by_length: FastMap<i64, Vec<IndexedPair>> = FastMap::default();
         for (index, indexed) in self.landmarks.iter().enumerate() {
             let Some(indexed) = indexed else {
                 continue;

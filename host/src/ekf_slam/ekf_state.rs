@@ -31,6 +31,9 @@ pub enum EkfError {
         /// Entries of the state.
         state_dim: usize,
     },
+    /// A measurement in the map frame reached a local map that does not estimate its base.
+    #[error("the local map holds no estimate of its base frame")]
+    MissingBase,
 }
 
 /// Mean and full covariance of the robot-and-landmarks state.
@@ -210,25 +213,239 @@ impl EkfState {
         self.landmark_count() - 1
     }
 
-    /// Appends entries with the given mean and covariance blocks: `cross` is the covariance of
-    /// the new entries with the existing state (rows: new entries), `own` their covariance.
-    pub(crate) fn append(&mut self, mean: &DVector<f64>, cross: &DMatrix<f64>, own: &DMatrix<f64>) {
+    /// Replaces the pose (entries 0..3) by the first three of `new` and appends the rest as
+    /// landmarks, in one pass over the covariance: the state `[pose, landmarks]` becomes
+    /// `[new pose, landmarks, new landmarks]`. `cross` is the covariance of `new` with the
+    /// current state (rows: new entries; its first three columns, the old pose's, are used
+    /// only through `own`), `own` the covariance of `new`. Used by map joining, where the new
+    /// entries are the local map composed with the old pose.
+    pub(crate) fn replace_pose_and_append(
+        &mut self,
+        new: &DVector<f64>,
+        cross: &DMatrix<f64>,
+        own: &DMatrix<f64>,
+    ) {
+        debug_assert_eq!(self.robot_dim, 3);
         let n = self.dim();
-        let k = mean.len();
-        let mut covariance = DMatrix::zeros(n + k, n + k);
+        let k = new.len();
+        debug_assert!(k >= 3 && (k - 3).is_multiple_of(2));
+        debug_assert_eq!(cross.shape(), (k, n));
+        debug_assert_eq!(own.shape(), (k, k));
+        let (landmarks, appended) = (n - 3, k - 3);
+        let dim = n + appended;
+        // Grown in place (the old landmarks keep their place and their entries; the buffer is
+        // reallocated, not copied into fresh zeroed memory): every entry of the old pose's rows
+        // and columns and of the new rows and columns is written below.
+        let mut covariance = std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0));
+        covariance.resize_mut(dim, dim, 0.0);
+        // The new pose and the new landmarks with the old landmarks.
+        let cross_pose = cross.view((0, 3), (3, landmarks));
+        let cross_appended = cross.view((3, 3), (appended, landmarks));
         covariance
-            .view_mut((0, 0), (n, n))
-            .copy_from(&self.covariance);
-        covariance.view_mut((n, 0), (k, n)).copy_from(cross);
+            .view_mut((0, 3), (3, landmarks))
+            .copy_from(&cross_pose);
         covariance
-            .view_mut((0, n), (n, k))
-            .copy_from(&cross.transpose());
-        covariance.view_mut((n, n), (k, k)).copy_from(own);
+            .view_mut((3, 0), (landmarks, 3))
+            .copy_from(&cross_pose.transpose());
+        covariance
+            .view_mut((n, 3), (appended, landmarks))
+            .copy_from(&cross_appended);
+        covariance
+            .view_mut((3, n), (landmarks, appended))
+            .copy_from(&cross_appended.transpose());
+        // The new entries among themselves.
+        let new_rows = |index: usize| if index < 3 { index } else { n + index - 3 };
+        for c in 0..k {
+            for r in 0..k {
+                covariance[(new_rows(r), new_rows(c))] = own[(r, c)];
+            }
+        }
+        let mut mean = DVector::zeros(dim);
+        mean.rows_mut(0, 3).copy_from(&new.rows(0, 3));
+        mean.rows_mut(3, landmarks)
+            .copy_from(&self.mean.rows(3, landmarks));
+        mean.rows_mut(n, appended).copy_from(&new.rows(3, appended));
+        self.mean = mean;
         self.covariance = covariance;
-        let mut full = DVector::zeros(n + k);
-        full.rows_mut(0, n).copy_from(&self.mean);
-        full.rows_mut(n, k).copy_from(mean);
-        self.mean = full;
+        debug_assert_symmetric!(self.covariance);
+    }
+
+    /// Appends `mean.len()` entries to the robot block (before the landmarks), independent of
+    /// everything else, with covariance `covariance`. Returns the offset of the first one.
+    pub(crate) fn extend_robot(&mut self, mean: &DVector<f64>, covariance: &DMatrix<f64>) -> usize {
+        let (n, r, e) = (self.dim(), self.robot_dim, mean.len());
+        let landmarks = n - r;
+        let mut full_mean = DVector::zeros(n + e);
+        full_mean.rows_mut(0, r).copy_from(&self.mean.rows(0, r));
+        full_mean.rows_mut(r, e).copy_from(mean);
+        full_mean
+            .rows_mut(r + e, landmarks)
+            .copy_from(&self.mean.rows(r, landmarks));
+        let mut full = DMatrix::zeros(n + e, n + e);
+        let moved = |index: usize| if index < r { index } else { index + e };
+        for c in 0..n {
+            for row in 0..n {
+                full[(moved(row), moved(c))] = self.covariance[(row, c)];
+            }
+        }
+        full.view_mut((r, r), (e, e)).copy_from(covariance);
+        self.mean = full_mean;
+        self.covariance = full;
+        self.robot_dim = r + e;
+        r
+    }
+
+    /// Re-expresses three entries holding a pose (`offset..offset + 3`) through
+    /// `new_from_old`: the mean is composed, the covariance rotated.
+    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: [f64; 3]) {
+        let old = [
+            self.mean[offset],
+            self.mean[offset + 1],
+            self.mean[offset + 2],
+        ];
+        let (new, _, rotation) = super::frames::compose_pose(new_from_old, old);
+        self.mean.rows_mut(offset, 3).copy_from_slice(&new);
+        let n = self.dim();
+        let rows = rotation * self.covariance.view((offset, 0), (3, n));
+        self.covariance
+            .view_mut((offset, 0), (3, n))
+            .copy_from(&rows);
+        let columns = self.covariance.view((0, offset), (n, 3)) * rotation.transpose();
+        self.covariance
+            .view_mut((0, offset), (n, 3))
+            .copy_from(&columns);
+        symmetrise(&mut self.covariance);
+    }
+
+    /// Replaces the marginal of the pose (entries 0..3) by `pose` / `pose_covariance` and
+    /// moves every other entry by its linear regression on the pose: the rest of the state is
+    /// taken as unchanged given the pose. This is how information gathered about the pose
+    /// elsewhere (a local map that measured its base) flows into the state:
+    /// `x⁺ = x + G Δ`, `P⁺ = P + G (P_b⁺ − P_b) Gᵀ` with `G = P_{·b} P_b⁻¹`.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the pose's current covariance is not
+    /// positive definite (nothing to regress on); the state is then unchanged.
+    pub(crate) fn set_pose_marginal(
+        &mut self,
+        pose: [f64; 3],
+        pose_covariance: &Matrix3<f64>,
+    ) -> Result<(), EkfError> {
+        let n = self.dim();
+        let cholesky = self
+            .pose_covariance()
+            .cholesky()
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        // Gᵀ = P_b⁻¹ P_{b·} (3 × n).
+        let g_t = cholesky.solve(&self.covariance.rows(0, 3).into_owned());
+        let mut delta = nalgebra::Vector3::new(
+            pose[0] - self.mean[0],
+            pose[1] - self.mean[1],
+            pose[2] - self.mean[2],
+        );
+        delta[2] = wrap_angle_rad(delta[2]);
+        self.mean.gemv_tr(1.0, &g_t, &delta, 1.0);
+        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
+        let change = pose_covariance - self.pose_covariance();
+        let a = g_t.transpose() * change; // n × 3
+        self.covariance.gemm(1.0, &a, &g_t, 1.0);
+        symmetrise(&mut self.covariance);
+        // The pose block is set exactly (rounding aside).
+        self.covariance
+            .view_mut((0, 0), (3, 3))
+            .copy_from(pose_covariance);
+        debug_assert_eq!(self.dim(), n);
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
+    }
+
+    /// Imposes that each pair `(duplicate, kept)` of landmarks is one point (the measurement
+    /// `duplicate − kept = 0` with noise `sigma_m` per axis), then removes the duplicates.
+    ///
+    /// The update is computed only for the entries that stay, in the symmetric form
+    /// `P⁺ = P − W Wᵀ` with `W = P Hᵀ L⁻ᵀ` (`L Lᵀ = S`): the directions a near-exact constraint
+    /// makes nearly singular are those of the duplicates, which are removed, so the form
+    /// needs no Joseph safeguard, and it costs one rank-`2p` product over the kept block
+    /// instead of two over the whole covariance.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the pairs' joint innovation covariance
+    /// is not positive definite; the state is then unchanged.
+    pub fn merge_landmarks(
+        &mut self,
+        pairs: &[(usize, usize)],
+        sigma_m: f64,
+    ) -> Result<(), EkfError> {
+        if pairs.is_empty() {
+            return Ok(());
+        }
+        let n = self.dim();
+        let m = 2 * pairs.len();
+        // P Hᵀ: column 2i + d is P[:, duplicate + d] − P[:, kept + d].
+        let mut p_ht = DMatrix::zeros(n, m);
+        let mut innovation = DVector::zeros(m);
+        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
+            for d in 0..2 {
+                let mut column = p_ht.column_mut(2 * i + d);
+                column.copy_from(&self.covariance.column(a + d));
+                column.axpy(-1.0, &self.covariance.column(b + d), 1.0);
+                innovation[2 * i + d] = self.mean[b + d] - self.mean[a + d];
+            }
+        }
+        // S = H P Hᵀ + R.
+        let mut s = DMatrix::identity(m, m) * sigma_m.powi(2);
+        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
+            for d in 0..2 {
+                for col in 0..m {
+                    s[(2 * i + d, col)] += p_ht[(a + d, col)] - p_ht[(b + d, col)];
+                }
+            }
+        }
+        s = (&s + s.transpose()) * 0.5;
+        let cholesky = s
+            .cholesky()
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+
+        let count = self.landmark_count();
+        let mut removed = vec![false; count];
+        for &(duplicate, _) in pairs {
+            if duplicate < count {
+                removed[duplicate] = true;
+            }
+        }
+        let keep: Vec<usize> = (0..self.robot_dim)
+            .chain((0..count).filter(|&i| !removed[i]).flat_map(|i| {
+                let o = self.robot_dim + 2 * i;
+                [o, o + 1]
+            }))
+            .collect();
+        // W = P Hᵀ L⁻ᵀ over the kept rows (m × kept, transposed), and the mean step K ν.
+        let p_ht_kept = p_ht.select_rows(keep.iter());
+        let whitened_innovation = cholesky
+            .l()
+            .solve_lower_triangular(&innovation)
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let w_t = cholesky
+            .l()
+            .solve_lower_triangular(&p_ht_kept.transpose())
+            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let mut mean = self.mean.select_rows(keep.iter());
+        mean.gemv_tr(1.0, &w_t, &whitened_innovation, 1.0);
+        mean[THETA] = wrap_angle_rad(mean[THETA]);
+        let mut covariance = gather(
+            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
+            &keep,
+        );
+        // `gemm_tr` would take dot products column by column; the explicit transpose lets
+        // `gemm` use its blocked kernel. Entries (i, j) and (j, i) of `W Wᵀ` sum the same
+        // products in the same order, so the result stays exactly symmetric.
+        covariance.gemm(-1.0, &w_t.transpose(), &w_t, 1.0);
+        self.mean = mean;
+        self.covariance = covariance;
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
     }
 
     /// Removes the landmarks whose indices are listed (marginalising them out); the rest keep
@@ -251,10 +468,10 @@ impl EkfState {
             }))
             .collect();
         self.mean = self.mean.select_rows(keep.iter());
-        self.covariance = self
-            .covariance
-            .select_rows(keep.iter())
-            .select_columns(keep.iter());
+        self.covariance = gather(
+            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
+            &keep,
+        );
     }
 
     /// The innovation covariance `H P Hᵀ + R`.
@@ -320,15 +537,46 @@ impl EkfState {
         self.covariance.gemm(-1.0, &k_gain, &p_ht.transpose(), 1.0);
         self.covariance
             .gemm(1.0, &gain_residual, &k_gain.transpose(), 1.0);
-        for a in 0..n {
-            for b in 0..a {
-                let mean = 0.5 * (self.covariance[(a, b)] + self.covariance[(b, a)]);
-                self.covariance[(a, b)] = mean;
-                self.covariance[(b, a)] = mean;
-            }
-        }
+        symmetrise(&mut self.covariance);
         debug_assert_symmetric!(self.covariance);
         Ok(())
+    }
+}
+
+/// The rows and columns `keep` (increasing) of the square `matrix`, compacted in its own
+/// buffer in one pass: selecting rows and then columns would copy twice, into fresh memory.
+fn gather(matrix: DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
+    let n = matrix.nrows();
+    let k = keep.len();
+    debug_assert!(keep.windows(2).all(|w| w[0] < w[1]) && keep.last().is_none_or(|&l| l < n));
+    let mut data: Vec<f64> = matrix.data.into();
+    // Entry (to_row, to_col) goes to to_col·k + to_row ≤ from_col·n + from_row, where it
+    // comes from: walking forward never overwrites an entry still to be read.
+    for (to_col, &from_col) in keep.iter().enumerate() {
+        for (to_row, &from_row) in keep.iter().enumerate() {
+            data[to_col * k + to_row] = data[from_col * n + from_row];
+        }
+    }
+    data.truncate(k * k);
+    DMatrix::from_vec(k, k, data)
+}
+
+/// Replaces a square matrix by the mean of itself and its transpose, tile by tile so both
+/// halves are read from cache.
+fn symmetrise(matrix: &mut DMatrix<f64>) {
+    const TILE: usize = 32;
+    let n = matrix.nrows();
+    debug_assert_eq!(n, matrix.ncols());
+    for tile_col in (0..n).step_by(TILE) {
+        for tile_row in (tile_col..n).step_by(TILE) {
+            for col in tile_col..(tile_col + TILE).min(n) {
+                for row in tile_row.max(col + 1)..(tile_row + TILE).min(n) {
+                    let mean = 0.5 * (matrix[(row, col)] + matrix[(col, row)]);
+                    matrix[(row, col)] = mean;
+                    matrix[(col, row)] = mean;
+                }
+            }
+        }
     }
 }
 
@@ -398,5 +646,101 @@ mod tests {
         let expected = &f * before.view((0, 3), (3, 2));
         assert!((cross - expected).amax() < 1e-12);
         assert_eq!(state.landmark(0), [3.0, 4.0]);
+    }
+
+    /// A robot and four landmarks with a dense, well-conditioned covariance.
+    fn correlated_state() -> EkfState {
+        let n = 11;
+        let a = DMatrix::from_fn(n, n, |r, c| ((r * 7 + c * 3) % 11) as f64 * 0.05 - 0.2);
+        let covariance = &a * a.transpose() + DMatrix::identity(n, n) * 0.3;
+        let mean = DVector::from_fn(n, |r, _| r as f64 * 0.7 - 2.0);
+        EkfState::from_parts(mean, covariance, 3)
+    }
+
+    #[test]
+    fn merged_landmarks_match_the_constraint_update_then_removal() {
+        let pairs = [(3, 0), (2, 1)];
+        let sigma_m = 1e-3;
+        let mut merged = correlated_state();
+        merged.merge_landmarks(&pairs, sigma_m).unwrap();
+
+        // Reference: the same constraint through the general update, then removal.
+        let mut reference = correlated_state();
+        let n = reference.dim();
+        let mut h = DMatrix::zeros(4, n);
+        let mut innovation = DVector::zeros(4);
+        for (row, &(duplicate, kept)) in pairs.iter().enumerate() {
+            let (a, b) = (reference.landmark(duplicate), reference.landmark(kept));
+            for d in 0..2 {
+                h[(2 * row + d, reference.landmark_offset(duplicate) + d)] = 1.0;
+                h[(2 * row + d, reference.landmark_offset(kept) + d)] = -1.0;
+                innovation[2 * row + d] = b[d] - a[d];
+            }
+        }
+        let r = DMatrix::identity(4, 4) * sigma_m.powi(2);
+        reference.update(&innovation, &h, &r).unwrap();
+        reference.remove_landmarks(&[2, 3]);
+
+        assert_eq!(merged.landmark_count(), 2);
+        assert!((merged.mean() - reference.mean()).amax() < 1e-9);
+        assert!((merged.covariance() - reference.covariance()).amax() < 1e-9);
+        // The kept landmark now sits between its two records.
+        let before = correlated_state();
+        let fused = merged.landmark(0);
+        let (x0, x3) = (before.landmark(0)[0], before.landmark(3)[0]);
+        assert!(fused[0] > x0.min(x3) && fused[0] < x0.max(x3));
+    }
+
+    #[test]
+    fn pose_replaced_and_landmarks_appended_in_place() {
+        let mut state = correlated_state();
+        let before = state.clone();
+        let n = before.dim();
+        let new = DVector::from_vec(vec![10.0, 11.0, 0.2, 12.0, 13.0]);
+        let cross = DMatrix::from_fn(5, n, |r, c| 0.01 * (r + c) as f64);
+        let own = DMatrix::from_fn(5, 5, |r, c| if r == c { 2.0 } else { 0.1 });
+        state.replace_pose_and_append(&new, &cross, &own);
+        assert_eq!(state.landmark_count(), 5);
+        assert_eq!(state.pose(), [10.0, 11.0, 0.2]);
+        assert_eq!(state.landmark(4), [12.0, 13.0]);
+        assert_eq!(state.landmark(1), before.landmark(1));
+        let p = state.covariance();
+        // Old landmarks untouched, new pose with new landmark from `own`, new pose with an
+        // old landmark from `cross`.
+        assert_eq!(p[(5, 6)], before.covariance()[(5, 6)]);
+        assert_eq!(p[(0, n)], own[(0, 3)]);
+        assert_eq!(p[(1, 4)], cross[(1, 4)]);
+        assert_eq!(p[(n + 1, 3)], cross[(4, 3)]);
+        assert_eq!(p[(n + 1, n + 1)], 2.0);
+    }
+
+    #[test]
+    fn pose_marginal_carries_a_pose_measurement_to_the_whole_state() {
+        // Measuring the pose directly (linear) must give the same state as first updating the
+        // pose's marginal alone and then regressing the rest on it.
+        let mut reference = correlated_state();
+        let h = DMatrix::from_fn(3, reference.dim(), |r, c| if r == c { 1.0 } else { 0.0 });
+        let r = DMatrix::from_diagonal(&DVector::from_vec(vec![0.2, 0.3, 0.05]));
+        let innovation = DVector::from_vec(vec![0.4, -0.3, 0.1]);
+        let mut pose_only = EkfState::new(
+            DVector::from_row_slice(&reference.pose()),
+            DMatrix::from_column_slice(3, 3, reference.pose_covariance().as_slice()),
+        );
+        pose_only
+            .update(&innovation, &DMatrix::identity(3, 3), &r)
+            .unwrap();
+        let mut regressed = reference.clone();
+        regressed
+            .set_pose_marginal(pose_only.pose(), &pose_only.pose_covariance())
+            .unwrap();
+        reference.update(&innovation, &h, &r).unwrap();
+        assert!((regressed.mean() - reference.mean()).amax() < 1e-9);
+        assert!((regressed.covariance() - reference.covariance()).amax() < 1e-9);
+        // An exactly known pose has nothing to regress on.
+        let mut exact = EkfState::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        assert_eq!(
+            exact.set_pose_marginal([1.0, 0.0, 0.0], &Matrix3::identity()),
+            Err(EkfError::CovarianceNotPositiveDefinite)
+        );
     }
 }

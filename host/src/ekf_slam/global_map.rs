@@ -9,6 +9,14 @@
 //! paired with the global ones by the individual gate and JCBB on `l_new − l_old`, each pair
 //! is imposed as the measurement `l_new − l_old = 0` and the duplicate is removed. Only the
 //! pairing update touches the whole covariance (O(N² p) for `p` pairs).
+//!
+//! A local map that measured its base in the map frame (GPS) carries its own estimate `b_L`
+//! of the base, started from the global one and independent of the rest given the base.
+//! Joining it first moves the global map onto that estimate: the base's marginal becomes
+//! `b_L`'s and every global entry moves by its regression on the base
+//! ([`EkfState`]'s `set_pose_marginal`); the local map's entries are then composed with `b_L`,
+//! their covariance with the global map passing through the base:
+//! `Cov(new, global) = J P_{L,b} P_{b_L}⁻¹ Cov(b, global)`.
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
@@ -123,9 +131,20 @@ impl GlobalMap {
         options: &AssociationOptions,
         recognised: &[(usize, usize)],
     ) -> Result<JoinReport, EkfError> {
-        let (local_state, local_info) = local.into_parts();
+        let parts = local.into_parts();
+        let (local_state, local_info) = (parts.state, parts.info);
+        // What the local map learnt about its base flows into the global map first; if the
+        // global base has no uncertainty to regress on, the local estimate is not used.
+        let base_offset = parts.base_offset.filter(|&offset| {
+            let mean = local_state.mean();
+            let base = [mean[offset], mean[offset + 1], mean[offset + 2]];
+            let covariance = local_state
+                .covariance()
+                .fixed_view::<3, 3>(offset, offset)
+                .into_owned();
+            self.state.set_pose_marginal(base, &covariance).is_ok()
+        });
         let base = self.state.pose();
-        let n_global = self.state.dim();
         let n_local = local_state.dim();
         let local_robot_dim = local_state.robot_dim();
         let count = local_state.landmark_count();
@@ -150,25 +169,29 @@ impl GlobalMap {
                 .copy_from(&d_l);
         }
         let p_base_all = self.state.covariance().rows(0, 3).into_owned();
-        let cross = &d_base * &p_base_all;
         let p_base = self.state.covariance().view((0, 0), (3, 3)).into_owned();
-        let own = &d_base * p_base * d_base.transpose()
-            + &d_local * local_state.covariance() * d_local.transpose();
-        self.state.append(&mean, &cross, &own);
-
-        // Move the new robot to the front in place of the old base: [r', M, L'].
-        let order: Vec<usize> = (n_global..n_global + 3)
-            .chain(3..n_global)
-            .chain(n_global + 3..n_global + k)
-            .collect();
-        self.state = EkfState::from_parts(
-            self.state.mean().select_rows(order.iter()),
-            self.state
-                .covariance()
-                .select_rows(order.iter())
-                .select_columns(order.iter()),
-            3,
-        );
+        let (cross, own) = match base_offset {
+            Some(offset) => {
+                // The base is a local entry: J covers it, and the new entries see the global
+                // map through their regression on it.
+                d_local.view_mut((0, offset), (k, 3)).copy_from(&d_base);
+                let p_local = local_state.covariance();
+                let own = &d_local * p_local * d_local.transpose();
+                let local_with_base = &d_local * p_local.columns(offset, 3);
+                let through_base = match p_base.clone().cholesky() {
+                    Some(cholesky) => cholesky.solve(&local_with_base.transpose()).transpose(),
+                    None => d_base.clone(),
+                };
+                (through_base * &p_base_all, own)
+            }
+            None => (
+                &d_base * &p_base_all,
+                &d_base * p_base * d_base.transpose()
+                    + &d_local * local_state.covariance() * d_local.transpose(),
+            ),
+        };
+        // The new robot takes the old base's place: [r', M, L'].
+        self.state.replace_pose_and_append(&mean, &cross, &own);
         let old_count = self.info.len();
         let joined_map = self.bases_in_map.len() - 1;
         self.info.extend(local_info);
@@ -218,6 +241,22 @@ impl GlobalMap {
                 if innovation.norm() > 20.0 {
                     continue;
                 }
+                // Exact cheap rejection: νᵀ S⁻¹ ν ≥ |ν|² / λ_max(S) ≥ |ν|² / trace(S), and the
+                // trace takes six entries of the covariance where S takes sixteen.
+                let (cn, co) = (
+                    self.state.landmark_offset(new),
+                    self.state.landmark_offset(old),
+                );
+                let trace = (0..2)
+                    .map(|d| {
+                        covariance[(cn + d, cn + d)] + covariance[(co + d, co + d)]
+                            - 2.0 * covariance[(cn + d, co + d)]
+                    })
+                    .sum::<f64>()
+                    + noise.trace();
+                if innovation.norm_squared() > gate * trace {
+                    continue;
+                }
                 if !self.info[old].diameter_compatible(
                     self.info[new].diameter_m,
                     options.diameter_tolerance_m,
@@ -227,11 +266,11 @@ impl GlobalMap {
                 }
                 let jacobian = vec![
                     JacobianBlock {
-                        column: self.state.landmark_offset(new),
+                        column: cn,
                         matrix: DMatrix::identity(2, 2),
                     },
                     JacobianBlock {
-                        column: self.state.landmark_offset(old),
+                        column: co,
                         matrix: -DMatrix::identity(2, 2),
                     },
                 ];
@@ -257,32 +296,13 @@ impl GlobalMap {
         if pairs.is_empty() {
             return Ok(());
         }
-        let n = self.state.dim();
-        let m = 2 * pairs.len();
-        let mut h = DMatrix::zeros(m, n);
-        let mut innovation = DVector::zeros(m);
-        for (row, &(new, old)) in pairs.iter().enumerate() {
-            let (a, b) = (self.state.landmark(new), self.state.landmark(old));
-            innovation[2 * row] = b[0] - a[0];
-            innovation[2 * row + 1] = b[1] - a[1];
-            let (cn, co) = (
-                self.state.landmark_offset(new),
-                self.state.landmark_offset(old),
-            );
-            for d in 0..2 {
-                h[(2 * row + d, cn + d)] = 1.0;
-                h[(2 * row + d, co + d)] = -1.0;
-            }
-        }
-        let r = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
-        self.state.update(&innovation, &h, &r)?;
+        self.state.merge_landmarks(pairs, FUSION_SIGMA_M)?;
         let mut removed: Vec<usize> = pairs.iter().map(|&(new, _)| new).collect();
         for &(new, old) in pairs {
             let record = self.info[new];
             self.info[old].merge(&record);
         }
         removed.sort_unstable();
-        self.state.remove_landmarks(&removed);
         let keep = |index: usize| removed.binary_search(&index).is_err();
         self.info = (0..self.info.len())
             .filter(|&i| keep(i))

@@ -12,6 +12,9 @@
 //! distance. A node budget bounds the search; when it runs out the best hypothesis found so
 //! far is returned.
 
+use std::cell::RefCell;
+use std::collections::HashMap;
+
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
@@ -107,7 +110,24 @@ pub fn cross_covariance(
 }
 
 /// The chi-square quantile at `confidence` for `dof` degrees of freedom.
+///
+/// The inverse CDF is an iterative search of a few microseconds and every scan asks for a
+/// dozen quantiles, always the same few, so they are remembered per thread.
 pub fn chi_square_quantile(dof: usize, confidence: f64) -> f64 {
+    thread_local! {
+        static KNOWN: RefCell<HashMap<(usize, u64), f64>> = RefCell::new(HashMap::new());
+    }
+    let key = (dof, confidence.to_bits());
+    if let Some(known) = KNOWN.with(|known| known.borrow().get(&key).copied()) {
+        return known;
+    }
+    let quantile = compute_chi_square_quantile(dof, confidence);
+    KNOWN.with(|known| known.borrow_mut().insert(key, quantile));
+    quantile
+}
+
+/// [`chi_square_quantile`] without the memory.
+fn compute_chi_square_quantile(dof: usize, confidence: f64) -> f64 {
     match ChiSquared::new(dof.max(1) as f64) {
         Ok(distribution) => distribution.inverse_cdf(confidence),
         // Unreachable for dof ≥ 1; fall back to a bound that accepts nothing.

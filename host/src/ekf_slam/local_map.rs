@@ -5,8 +5,16 @@
 //! so it is statistically independent of every earlier local map (Tardós et al., "Robust
 //! mapping and localization in indoor environments using sonar data", IJRR 2002); its size is
 //! bounded, so each of its steps costs the same however large the global map grows.
+//!
+//! A measurement made in the map frame (a GPS fix) depends on where the base lies in the
+//! map. For those, the local map also estimates its base: three entries appended to the robot
+//! block, started from the global map's estimate of the base and untouched by motion and by
+//! landmark observations. The local map then stays independent of the global map *given the
+//! base*, and at the join what it learnt about the base flows back into the global map
+//! ([`super::GlobalMap::join`]; Piniés and Tardós, "Large-scale SLAM building conditionally
+//! independent local maps", IEEE T-RO 2008).
 
-use nalgebra::{DMatrix, DVector, Matrix2};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::transform_point;
@@ -14,7 +22,7 @@ use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::motion_model::MotionModel;
 use super::options::AssociationOptions;
-use super::range_bearing::{LandmarkObservation, RangeBearingModel};
+use super::range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
 
 /// What one batch of observations did to the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -32,6 +40,42 @@ pub struct ObservationReport {
 pub struct LocalMap {
     state: EkfState,
     info: Vec<LandmarkInfo>,
+    /// Offset in the robot block of the base's pose in the map frame, when estimated.
+    base_offset: Option<usize>,
+}
+
+/// A local map taken apart for joining.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct LocalMapParts {
+    /// The filter state in the base frame.
+    pub state: EkfState,
+    /// Bookkeeping of each landmark.
+    pub info: Vec<LandmarkInfo>,
+    /// Offset of the base's pose in the robot block, when estimated.
+    pub base_offset: Option<usize>,
+}
+
+/// Squared Mahalanobis distance of a range-bearing pairing with landmark entries at
+/// `landmark_offset`, from the pose and landmark blocks of `covariance` (fixed-size, no
+/// allocation); `None` when the innovation covariance is singular.
+fn pairing_distance2(
+    covariance: &DMatrix<f64>,
+    predicted: &PredictedObservation,
+    landmark_offset: usize,
+    innovation: &Vector2<f64>,
+    noise: &Matrix2<f64>,
+) -> Option<f64> {
+    let p_pp = covariance.fixed_view::<3, 3>(0, 0);
+    let p_pl = covariance.fixed_view::<3, 2>(0, landmark_offset);
+    let p_ll = covariance.fixed_view::<2, 2>(landmark_offset, landmark_offset);
+    let (h_p, h_l) = (&predicted.d_pose, &predicted.d_landmark);
+    let cross = h_p * p_pl * h_l.transpose();
+    let s = h_p * p_pp * h_p.transpose()
+        + cross
+        + cross.transpose()
+        + h_l * p_ll * h_l.transpose()
+        + noise;
+    Some((innovation.transpose() * s.try_inverse()? * innovation)[0])
 }
 
 impl LocalMap {
@@ -41,6 +85,7 @@ impl LocalMap {
         LocalMap {
             state: EkfState::new(robot_mean, robot_covariance),
             info: Vec::new(),
+            base_offset: None,
         }
     }
 
@@ -59,14 +104,70 @@ impl LocalMap {
         self.info.len()
     }
 
-    /// Moves the robot over `dt_s` seconds.
+    /// The base's pose in the map frame and its covariance, when the local map estimates it
+    /// (see [`Self::add_base`]).
+    pub fn base_in_map(&self) -> Option<([f64; 3], Matrix3<f64>)> {
+        let offset = self.base_offset?;
+        let mean = self.state.mean();
+        let covariance = self
+            .state
+            .covariance()
+            .fixed_view::<3, 3>(offset, offset)
+            .into_owned();
+        Some((
+            [mean[offset], mean[offset + 1], mean[offset + 2]],
+            covariance,
+        ))
+    }
+
+    /// Offset in the robot block of the base's estimate, when there is one.
+    pub fn base_offset(&self) -> Option<usize> {
+        self.base_offset
+    }
+
+    /// Starts estimating the base's pose in the map frame from `base_in_map` with
+    /// `covariance` (the global map's marginal of it). Does nothing if already estimated.
+    pub fn add_base(&mut self, base_in_map: [f64; 3], covariance: &Matrix3<f64>) {
+        if self.base_offset.is_some() {
+            return;
+        }
+        let offset = self.state.extend_robot(
+            &DVector::from_row_slice(&base_in_map),
+            &DMatrix::from_column_slice(3, 3, covariance.as_slice()),
+        );
+        self.base_offset = Some(offset);
+    }
+
+    /// Re-expresses the estimate of the base, if any, in another map frame.
+    pub fn transform_base(&mut self, new_from_old: [f64; 3]) {
+        if let Some(offset) = self.base_offset {
+            self.state.transform_pose_entries(offset, new_from_old);
+        }
+    }
+
+    /// Moves the robot over `dt_s` seconds (the base, if estimated, stays).
     pub fn predict<M: MotionModel>(&mut self, model: &M, input: &M::Input, dt_s: f64) {
         if dt_s <= 0.0 || !dt_s.is_finite() {
             return;
         }
-        let prediction = model.predict(&self.state.robot(), input, dt_s);
-        self.state
-            .predict_robot(&prediction.robot, &prediction.f, &prediction.q);
+        let robot = self.state.robot();
+        let Some(offset) = self.base_offset else {
+            let prediction = model.predict(&robot, input, dt_s);
+            self.state
+                .predict_robot(&prediction.robot, &prediction.f, &prediction.q);
+            return;
+        };
+        let prediction = model.predict(&robot.rows(0, offset).into_owned(), input, dt_s);
+        let r = robot.len();
+        let mut mean = robot;
+        mean.rows_mut(0, offset).copy_from(&prediction.robot);
+        let mut f = DMatrix::identity(r, r);
+        f.view_mut((0, 0), (offset, offset))
+            .copy_from(&prediction.f);
+        let mut q = DMatrix::zeros(r, r);
+        q.view_mut((0, 0), (offset, offset))
+            .copy_from(&prediction.q);
+        self.state.predict_robot(&mean, &f, &q);
     }
 
     /// Pairs one scan's observations with the map (individual gate, then JCBB), updates the
@@ -98,6 +199,27 @@ impl LocalMap {
                 if (observation.range_m - predicted.z[0]).abs() > 10.0 {
                     continue;
                 }
+                let innovation = RangeBearingModel::innovation(observation, &predicted);
+                // The distance with fixed-size blocks first; the candidate (with its
+                // allocated Jacobian blocks) only for pairings that pass.
+                let Some(distance2) = pairing_distance2(
+                    covariance,
+                    &predicted,
+                    self.state.landmark_offset(j),
+                    &innovation,
+                    &noise,
+                ) else {
+                    continue;
+                };
+                nearest_distance2[i] = nearest_distance2[i].min(distance2);
+                let diameter_ok = info.diameter_compatible(
+                    observation.diameter_m,
+                    options.diameter_tolerance_m,
+                    options.diameter_tolerance_fraction,
+                );
+                if distance2 >= gate || !diameter_ok {
+                    continue;
+                }
                 let jacobian = vec![
                     JacobianBlock {
                         column: 0,
@@ -108,19 +230,9 @@ impl LocalMap {
                         matrix: DMatrix::from_column_slice(2, 2, predicted.d_landmark.as_slice()),
                     },
                 ];
-                let innovation = RangeBearingModel::innovation(observation, &predicted);
-                let Some(candidate) =
+                if let Some(candidate) =
                     PairingCandidate::new(j, innovation, jacobian, covariance, &noise)
-                else {
-                    continue;
-                };
-                nearest_distance2[i] = nearest_distance2[i].min(candidate.distance2);
-                let diameter_ok = info.diameter_compatible(
-                    observation.diameter_m,
-                    options.diameter_tolerance_m,
-                    options.diameter_tolerance_fraction,
-                );
-                if candidate.distance2 < gate && diameter_ok {
+                {
                     list.push(candidate);
                 }
             }
@@ -245,8 +357,52 @@ impl LocalMap {
         Ok(true)
     }
 
-    /// Mutable access to the state for the map-joining step.
-    pub(crate) fn into_parts(self) -> (EkfState, Vec<LandmarkInfo>) {
-        (self.state, self.info)
+    /// Applies a measured position, in the map frame, of the point `antenna_in_robot` on the
+    /// robot (a GPS antenna) with covariance `noise`, through the estimated base, unless its
+    /// squared Mahalanobis distance (with the base's uncertainty) exceeds `gate_distance2`.
+    /// Returns whether it was applied.
+    ///
+    /// # Errors
+    /// [`EkfError::MissingBase`] when the base is not estimated ([`Self::add_base`]),
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the innovation covariance is not
+    /// positive definite.
+    pub fn observe_position_in_map(
+        &mut self,
+        position_in_map: [f64; 2],
+        antenna_in_robot: [f64; 2],
+        noise: &Matrix2<f64>,
+        gate_distance2: f64,
+    ) -> Result<bool, EkfError> {
+        let (base, _) = self.base_in_map().ok_or(EkfError::MissingBase)?;
+        let offset = self.base_offset.ok_or(EkfError::MissingBase)?;
+        let n = self.state.dim();
+        let (in_base, d_pose, _) = transform_point(self.state.pose(), antenna_in_robot);
+        let (predicted, d_base, d_in_base) = transform_point(base, in_base);
+        let innovation = DVector::from_vec(vec![
+            position_in_map[0] - predicted[0],
+            position_in_map[1] - predicted[1],
+        ]);
+        let mut h = DMatrix::zeros(2, n);
+        h.view_mut((0, 0), (2, 3)).copy_from(&(d_in_base * d_pose));
+        h.view_mut((0, offset), (2, 3)).copy_from(&d_base);
+        let r = DMatrix::from_column_slice(2, 2, noise.as_slice());
+        let s = self.state.innovation_covariance(&h, &r);
+        let Some(s_inv) = s.try_inverse() else {
+            return Err(EkfError::CovarianceNotPositiveDefinite);
+        };
+        if innovation.dot(&(s_inv * &innovation)) > gate_distance2 {
+            return Ok(false);
+        }
+        self.state.update(&innovation, &h, &r)?;
+        Ok(true)
+    }
+
+    /// Takes the local map apart for the map-joining step.
+    pub(crate) fn into_parts(self) -> LocalMapParts {
+        LocalMapParts {
+            state: self.state,
+            info: self.info,
+            base_offset: self.base_offset,
+        }
     }
 }
