@@ -345,16 +345,7 @@ impl LocalMap {
         ]);
         let mut h = DMatrix::zeros(2, n);
         h.view_mut((0, 0), (2, 3)).copy_from(&d_pose);
-        let r = DMatrix::from_column_slice(2, 2, noise.as_slice());
-        let s = self.state.innovation_covariance(&h, &r);
-        let Some(s_inv) = s.try_inverse() else {
-            return Err(EkfError::CovarianceNotPositiveDefinite);
-        };
-        if innovation.dot(&(s_inv * &innovation)) > gate_distance2 {
-            return Ok(false);
-        }
-        self.state.update(&innovation, &h, &r)?;
-        Ok(true)
+        self.gated_update(&innovation, &h, noise, gate_distance2)
     }
 
     /// Applies a measured position, in the map frame, of the point `antenna_in_robot` on the
@@ -385,15 +376,28 @@ impl LocalMap {
         let mut h = DMatrix::zeros(2, n);
         h.view_mut((0, 0), (2, 3)).copy_from(&(d_in_base * d_pose));
         h.view_mut((0, offset), (2, 3)).copy_from(&d_base);
+        self.gated_update(&innovation, &h, noise, gate_distance2)
+    }
+
+    /// The update with `innovation`, measurement Jacobian `h` and noise `noise`, unless the
+    /// innovation's squared Mahalanobis distance exceeds `gate_distance2`. Returns whether it
+    /// was applied.
+    fn gated_update(
+        &mut self,
+        innovation: &DVector<f64>,
+        h: &DMatrix<f64>,
+        noise: &Matrix2<f64>,
+        gate_distance2: f64,
+    ) -> Result<bool, EkfError> {
         let r = DMatrix::from_column_slice(2, 2, noise.as_slice());
-        let s = self.state.innovation_covariance(&h, &r);
+        let s = self.state.innovation_covariance(h, &r);
         let Some(s_inv) = s.try_inverse() else {
             return Err(EkfError::CovarianceNotPositiveDefinite);
         };
-        if innovation.dot(&(s_inv * &innovation)) > gate_distance2 {
+        if innovation.dot(&(s_inv * innovation)) > gate_distance2 {
             return Ok(false);
         }
-        self.state.update(&innovation, &h, &r)?;
+        self.state.update(innovation, h, &r)?;
         Ok(true)
     }
 
