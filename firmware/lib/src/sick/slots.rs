@@ -8,17 +8,32 @@
 //! the receiver can count what it missed without any help from the sensor: every slot in
 //! which bytes arrived but no telegram was accepted held a lost scan.
 //!
-//! Slots are numbered from an anchor: the first byte of the last accepted telegram, or, before
-//! the first one of a streaming session, the first byte after streaming started. A byte at
-//! `t` lies in slot `⌊(t − anchor + (P − A)/2) / P⌋`, so slot boundaries fall in the middle of
-//! the quiet gap between telegrams and stamp jitter below `(P − A)/2` changes nothing. Each
-//! slot that receives bytes counts once; each slot holds one telegram at most, so the scans
-//! missed are the slots with bytes less the telegrams accepted.
+//! Slots are numbered from an anchor: the start of the last accepted telegram, or, before the
+//! first one of a streaming session (or after a break), the first byte heard. A byte at `t`
+//! lies in slot `⌊(t − anchor + (P − A)/2) / P⌋`, so slot boundaries fall in the middle of the
+//! quiet gap between telegrams and stamp jitter below `(P − A)/2` changes nothing. Each slot
+//! that receives bytes counts once; each slot holds one telegram at most, so the scans missed
+//! are the slots with bytes less the telegrams accepted.
+//!
+//! A byte's stamp is never earlier than its arrival, but it can be later: bytes read in one
+//! burst well after they arrived (a reader that fell behind, a whole telegram delivered at
+//! once) are stamped back from the read by one character time each, which reaches back only
+//! over that read. The first byte of a 732-byte telegram read in 256-byte reads is then
+//! stamped up to two thirds of its air time late, while the bytes of the next telegram, read
+//! as they come, are stamped on time. An anchor at that late first byte would put the next
+//! telegram's first bytes into the accepted one's slot (at 38 400 Bd, the first 110 ms of
+//! it: exactly what a power cycle leaves of a telegram it cuts off). So the anchor is taken
+//! from the telegram's last byte, less the air time of the bytes before it: the line is quiet
+//! after a telegram, so its last byte is read as it arrives. (The first byte's stamp is no
+//! better when read on time, and after a resynchronisation the receiver interpolates it,
+//! possibly too early.)
 //!
 //! After a silence of [`BREAK_US`] the stream is broken: a power-cycled sensor says hello at
 //! another baud rate (`90h` at 9 600 Bd reads as noise at 500 kBd). Slots counted after a
-//! break become certain only when another telegram is accepted; when the session ends first
-//! ([`ScanSlots::end`], the stream watchdog), they are discarded. A telegram whose every byte
+//! break become certain only when another telegram is accepted, and count as missed only then;
+//! when the session ends first ([`ScanSlots::end`], the stream watchdog), they are discarded.
+//! So [`ScanSlots::missed`] never goes down, also when it is read while a restarting sensor
+//! is still being heard. A telegram whose every byte
 //! was lost, and a damaged last telegram before a break that never resumes, cannot be told
 //! from silence; they are the limits of this count.
 
@@ -43,6 +58,8 @@ pub struct ScanSlots {
     timing: Option<Timing>,
     /// Slot 0 of the grid: the first byte of a telegram, ns.
     anchor_ns: Option<u64>,
+    /// Whether an accepted telegram set the anchor (else the first byte heard did).
+    anchor_confirmed: bool,
     /// The highest slot with bytes since the anchor.
     last_slot: u64,
     /// The last byte's stamp, ns.
@@ -63,6 +80,8 @@ pub struct ScanSlots {
 struct Timing {
     period_ns: u64,
     airtime_ns: u64,
+    /// One character on the line, ns.
+    char_ns: u64,
 }
 
 impl Timing {
@@ -83,6 +102,7 @@ impl ScanSlots {
         ScanSlots {
             timing: None,
             anchor_ns: None,
+            anchor_confirmed: false,
             last_slot: 0,
             last_byte_ns: 0,
             after_break: 0,
@@ -103,13 +123,15 @@ impl ScanSlots {
         };
         let scan_ns = ROTATION_NS * rotations;
         let bytes = SCAN_FRAMING_BYTES + 2 * u64::from(values_per_scan);
-        let airtime_ns = bytes * BITS_PER_BYTE * 1_000_000_000 / u64::from(baud.max(1));
+        let char_ns = BITS_PER_BYTE * 1_000_000_000 / u64::from(baud.max(1));
+        let airtime_ns = bytes * char_ns;
         // The sensor skips the scans that end while the line is still busy.
         let period_ns = scan_ns * airtime_ns.div_ceil(scan_ns).max(1);
         self.end();
         self.timing = Some(Timing {
             period_ns,
             airtime_ns,
+            char_ns,
         });
     }
 
@@ -119,6 +141,7 @@ impl ScanSlots {
         self.active = self.active.wrapping_sub(self.after_break);
         self.timing = None;
         self.anchor_ns = None;
+        self.anchor_confirmed = false;
         self.last_slot = 0;
         self.after_break = 0;
         self.broken = false;
@@ -135,6 +158,7 @@ impl ScanSlots {
             // What follows may be noise from a restarting sensor: counted apart.
             self.broken = true;
             self.anchor_ns = None;
+            self.anchor_confirmed = false;
         }
         let Some(anchor_ns) = self.anchor_ns else {
             self.anchor_ns = Some(t_ns);
@@ -149,15 +173,17 @@ impl ScanSlots {
         }
     }
 
-    /// A scan telegram whose first byte arrived at `first_byte_us` was accepted.
+    /// A scan telegram was accepted. Call it once its last byte has been fed to
+    /// [`Self::on_byte`].
     ///
     /// Its bytes have already counted its slot, unless another accepted telegram took that
     /// slot (bytes read late in one burst with the next telegram's carry the same stamps):
-    /// each telegram has a slot of its own, so it counts one then. Its start moves the grid
-    /// along (the sensor's clock and the board's drift apart), unless the stamp lies far from
-    /// the grid: a stamp interpolated by the receiver after a resynchronisation is not
-    /// trusted for that.
-    pub fn on_scan(&mut self, first_byte_us: u64) {
+    /// each telegram has a slot of its own, so it counts one then. Its start (see the
+    /// [module documentation](self)) becomes the anchor: the grid follows the sensor's clock,
+    /// which drifts from the board's. Once an accepted telegram has set the anchor, a start
+    /// far from the grid does not move it: the last byte heard may be a later one than the
+    /// telegram's own when the receiver found the telegram by re-examining its buffer.
+    pub fn on_scan(&mut self) {
         let Some(timing) = self.timing else { return };
         if self.slot_taken {
             self.count_slot();
@@ -166,25 +192,44 @@ impl ScanSlots {
         self.accepted = self.accepted.wrapping_add(1);
         self.after_break = 0;
         self.broken = false;
-        let t_ns = first_byte_us.saturating_mul(1_000);
+        let start_ns = self
+            .last_byte_ns
+            .saturating_sub(timing.airtime_ns.saturating_sub(timing.char_ns));
         let Some(anchor_ns) = self.anchor_ns else {
-            self.anchor_ns = Some(t_ns);
+            self.anchor_ns = Some(start_ns);
+            self.anchor_confirmed = true;
             self.last_slot = 0;
             return;
         };
-        let slot = timing.slot(anchor_ns, t_ns);
-        let on_grid_ns = anchor_ns + slot * timing.period_ns;
-        if t_ns.abs_diff(on_grid_ns) <= timing.lead_ns() / 2 {
-            self.anchor_ns = Some(t_ns);
-            self.last_slot = self.last_slot.saturating_sub(slot);
-        }
+        // The slot the telegram's bytes were counted in, which becomes slot 0.
+        let slot = if self.anchor_confirmed {
+            let slot = timing.slot(anchor_ns, start_ns);
+            let on_grid_ns = anchor_ns + slot * timing.period_ns;
+            if start_ns.abs_diff(on_grid_ns) > timing.lead_ns() / 2 {
+                return;
+            }
+            slot
+        } else {
+            // The anchor is the first byte heard, stamped on time or late, at the start of a
+            // telegram or inside it (streaming began mid-telegram): that telegram started
+            // within an air time before it, and the accepted one a whole number of periods
+            // after that.
+            start_ns
+                .saturating_sub(anchor_ns + timing.lead_ns())
+                .div_ceil(timing.period_ns)
+        };
+        self.anchor_ns = Some(start_ns);
+        self.anchor_confirmed = true;
+        self.last_slot = self.last_slot.saturating_sub(slot);
     }
 
     /// Scans known to have been sent but not accepted, since boot (wraps at 2³²): slots that
-    /// received bytes, less accepted telegrams. Includes slots counted after a break, which
-    /// [`Self::end`] may still take back.
+    /// received bytes, less accepted telegrams. Slots counted after a break count only once a
+    /// telegram accepted after them has confirmed them.
     pub fn missed(&self) -> u32 {
-        self.active.wrapping_sub(self.accepted)
+        self.active
+            .wrapping_sub(self.after_break)
+            .wrapping_sub(self.accepted)
     }
 
     fn count_slot(&mut self) {
@@ -220,7 +265,7 @@ mod tests {
 
     fn telegram(slots: &mut ScanSlots, start_us: u64) {
         bytes(slots, start_us, 1.0);
-        slots.on_scan(start_us);
+        slots.on_scan();
     }
 
     #[test]
@@ -233,7 +278,7 @@ mod tests {
             for _ in 0..732 {
                 slots.on_byte(late_us);
             }
-            slots.on_scan(late_us);
+            slots.on_scan();
         }
         telegram(&mut slots, 5_000 + 4 * PERIOD_US);
         assert_eq!(slots.missed(), 0);
@@ -280,18 +325,21 @@ mod tests {
     fn noise_after_a_break_is_dropped_when_the_session_ends() {
         let mut slots = streaming();
         telegram(&mut slots, 0);
-        // The sensor restarts: 0.7 s of silence, then its hello at the wrong rate.
+        // The sensor restarts: 0.7 s of silence, then its hello at the wrong rate: two
+        // slots with bytes, not counted while uncertain.
         for i in 0..29 {
             slots.on_byte(700_000 + i * 1_042);
         }
-        assert_eq!(slots.missed(), 2);
+        assert_eq!(slots.missed(), 0);
         slots.end();
         assert_eq!(slots.missed(), 0);
         // After a break, a resumed stream confirms what was counted.
         let mut slots = streaming();
         telegram(&mut slots, 0);
         bytes(&mut slots, 600_000, 0.5);
+        assert_eq!(slots.missed(), 0);
         telegram(&mut slots, 600_000 + PERIOD_US);
+        assert_eq!(slots.missed(), 1);
         slots.end();
         assert_eq!(slots.missed(), 1);
     }
@@ -300,8 +348,99 @@ mod tests {
     fn not_counting_outside_a_session() {
         let mut slots = ScanSlots::new();
         bytes(&mut slots, 0, 1.0);
-        slots.on_scan(0);
+        slots.on_scan();
         assert_eq!(slots.missed(), 0);
+    }
+
+    /// 38 400 Bd: a 0.5° telegram takes 190.6 ms on the line, one goes out every 213.3 ms.
+    const SLOW_PERIOD_US: u64 = 213_333;
+    const SLOW_AIRTIME_US: u64 = 190_625;
+    /// One character at 38 400 Bd and at 500 kBd, as the laser task rounds it, µs.
+    const SLOW_CHAR_US: u64 = 260;
+    const CHAR_US: u64 = 20;
+
+    /// Feeds the first `count` of the 732 bytes of a telegram whose transmission ended at
+    /// `end_us`, read in one burst then, 256 bytes per read and stamped as the laser task
+    /// stamps them: back from the read by one character time per byte, never before the
+    /// previous stamp.
+    fn read_in_one_burst(slots: &mut ScanSlots, end_us: u64, count: u64, char_us: u64) {
+        let mut last_us = 0;
+        let mut left = count;
+        while left > 0 {
+            let chunk = left.min(256);
+            for i in 0..chunk {
+                let stamp_us = (end_us - (chunk - 1 - i) * char_us).max(last_us);
+                last_us = stamp_us;
+                slots.on_byte(stamp_us);
+            }
+            left -= chunk;
+        }
+    }
+
+    #[test]
+    fn a_telegram_cut_after_one_read_in_a_burst_is_counted() {
+        // The first byte of a telegram read in one burst is stamped 124 ms late; the bytes
+        // of the next one, which a power cycle cuts off after 20 ms and which are read as
+        // they come, must not fall into its slot.
+        let mut slots = ScanSlots::new();
+        slots.start(361, 50, 38_400);
+        for k in 0..3 {
+            read_in_one_burst(
+                &mut slots,
+                k * SLOW_PERIOD_US + SLOW_AIRTIME_US,
+                732,
+                SLOW_CHAR_US,
+            );
+            slots.on_scan();
+        }
+        let cut_us = 3 * SLOW_PERIOD_US;
+        for i in 1..=76 {
+            slots.on_byte(cut_us + i * SLOW_CHAR_US);
+        }
+        assert_eq!(slots.missed(), 1);
+        // 0.7 s later the restarting sensor's hello, at another rate: noise, then the
+        // watchdog ends the session.
+        for i in 0..29 {
+            slots.on_byte(cut_us + 720_000 + i * 1_042);
+        }
+        slots.end();
+        assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn telegrams_read_in_bursts_are_counted_once_each() {
+        // Intact and damaged telegrams alike, every one read late in one burst, the first
+        // of the session damaged: its late stamp is the first anchor.
+        for (baud, period_us, airtime_us, char_us) in [
+            (38_400, SLOW_PERIOD_US, SLOW_AIRTIME_US, SLOW_CHAR_US),
+            (500_000, PERIOD_US, AIRTIME_US, CHAR_US),
+        ] {
+            let mut slots = ScanSlots::new();
+            slots.start(361, 50, baud);
+            for k in 0..12 {
+                read_in_one_burst(&mut slots, k * period_us + airtime_us, 732, char_us);
+                if k % 3 != 0 {
+                    slots.on_scan();
+                }
+            }
+            assert_eq!(slots.missed(), 4, "{baud} Bd");
+            // Cut off by a power cycle after one byte: a scan all the same.
+            slots.on_byte(12 * period_us + char_us);
+            assert_eq!(slots.missed(), 5, "{baud} Bd");
+        }
+    }
+
+    #[test]
+    fn a_cut_telegram_read_in_a_burst_keeps_its_own_slot() {
+        // 500 kBd, every telegram read in one burst at its end; a power cycle cuts one off
+        // after 4 ms (the first 200 bytes), read in one burst too.
+        let mut slots = streaming();
+        for k in 0..4 {
+            read_in_one_burst(&mut slots, k * PERIOD_US + AIRTIME_US, 732, CHAR_US);
+            slots.on_scan();
+        }
+        read_in_one_burst(&mut slots, 4 * PERIOD_US + 4_000, 200, CHAR_US);
+        assert_eq!(slots.missed(), 1);
     }
 
     #[test]
@@ -315,7 +454,7 @@ mod tests {
             for i in 0..732 {
                 slots.on_byte(start + i * 190_625 / 732);
             }
-            slots.on_scan(start);
+            slots.on_scan();
         }
         assert_eq!(slots.missed(), 0);
     }

@@ -236,7 +236,7 @@ fn handle_event(
         && let Ok(scan) = ScanRepr::parse(telegram)
     {
         *scans = scans.wrapping_add(1);
-        slots.on_scan(*stamp_us);
+        slots.on_scan();
         let msg = scan.to_msg(
             *stamp_us,
             *scans,
