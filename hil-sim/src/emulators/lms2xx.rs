@@ -439,6 +439,11 @@ impl<W: World> Lms2xx<W> {
         self.restart(now_us, self.options.timing.power_on_delay_us);
     }
 
+    /// Whether bytes put on the line have not all left yet.
+    pub fn is_transmitting(&self) -> bool {
+        self.line.next_byte_end_us().is_some()
+    }
+
     /// The current baud rate.
     pub fn baud(&self) -> u32 {
         self.baud

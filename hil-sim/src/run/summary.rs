@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::RunOptions;
 use super::engine::{Engine, EventsInjected};
+use crate::emulators::StreamStart;
 use crate::faults::InjectedFaults;
 use crate::world::robot_state::wrap_angle_rad;
 use crate::world::{RobotState, World};
@@ -42,6 +43,8 @@ pub struct RunSummary {
     pub counted: Counted,
     /// The host's estimate against the truth.
     pub estimate: EstimateError,
+    /// Each stream of scans the laser began: when, and when its first scan went out.
+    pub laser_streams: Vec<StreamStart>,
     /// Wall-clock seconds the run took; not written, as everything written is deterministic.
     #[serde(skip)]
     pub wall_s: f64,
@@ -173,6 +176,7 @@ impl RunSummary {
                 final_status_received: status.is_some(),
             },
             estimate: estimate_error(&host.records),
+            laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
         }
     }
