@@ -265,12 +265,24 @@ pub struct Sensors<W: World> {
 /// Counts of what the sensors sent.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SentCounts {
-    /// Scan telegrams that left the laser (whole or cut by a power cycle).
+    /// Scan telegrams that left the laser (whole, or cut short by a power cycle or a
+    /// request).
     pub scan_telegrams: u64,
     /// Of those, cut by a power cycle.
     pub scan_telegrams_cut: u64,
+    /// Of those, cut short by a request from the board (§5: a request interrupts a scan).
+    pub scan_telegrams_interrupted: u64,
     /// Scan telegrams sent whole.
     pub scan_telegrams_whole: u64,
+}
+
+/// Why the laser stopped mid-telegram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CutBy {
+    /// A power cycle.
+    Restart,
+    /// A request from the board.
+    Request,
 }
 
 /// How the telegram under way on the laser line goes to the board.
@@ -299,6 +311,8 @@ pub struct Engine<'c, W: World> {
     laser_sent_baud: u32,
     /// When the laser was polled last, µs.
     laser_polled_us: u64,
+    /// Why the telegram being cut off stopped.
+    cut_by: CutBy,
     laser_faults: ByteFaults,
     gps_faults: ByteFaults,
     faults: FaultSpec,
@@ -366,6 +380,7 @@ impl<'c, W: World> Engine<'c, W> {
             scan_times_us: VecDeque::new(),
             laser_sent_baud,
             laser_polled_us: 0,
+            cut_by: CutBy::Restart,
             laser_faults: ByteFaults::new(&faults, seed ^ 0x1A5E_0001),
             gps_faults: ByteFaults::new(
                 &FaultSpec {
@@ -534,9 +549,15 @@ impl<'c, W: World> Engine<'c, W> {
     /// any byte moved.
     fn pump(&mut self, t_us: u64) -> io::Result<bool> {
         let commands = self.laser.read_available()?;
+        let mut cut_off = false;
         if !commands.is_empty() {
             let baud = self.laser.board_baud()?;
+            let interrupted = self.sensors.lms.counters().scans_interrupted;
             self.sensors.lms.receive(&commands, baud, t_us);
+            // A request cut a scan short: it ends where it stopped, not where its length says.
+            if self.sensors.lms.counters().scans_interrupted != interrupted {
+                cut_off = self.laser_cut_off(t_us, CutBy::Request)?;
+            }
         }
         // The GPS receiver is not configured by the board.
         let to_gps = self.gps_end.read_available()?;
@@ -557,7 +578,7 @@ impl<'c, W: World> Engine<'c, W> {
                 relayed = true;
             }
         }
-        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty() || relayed)
+        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty() || relayed || cut_off)
     }
 
     /// The fault events and the emulators' output at `t_us`. Returns whether anything was
@@ -603,17 +624,12 @@ impl<'c, W: World> Engine<'c, W> {
         if let Some(&at_s) = self.faults.laser_restarts_s.get(self.next_restart)
             && t_s >= at_s
         {
-            // At its own time, whenever the engine looks: what left before it, then the cut.
+            // At its own time, whenever the engine looks.
             let at_us = s_to_us(at_s).min(t_us);
             self.next_restart += 1;
             self.events.laser_restarts += 1;
-            wrote |= self.emit_laser(at_us)?;
             self.sensors.lms.power_cycle(at_us);
-            if let Some(piece) = self.tap.cut() {
-                wrote |= self.write_laser_piece(piece, self.laser_sent_baud)?;
-            }
-            // Every scan begun has been accounted for.
-            self.scan_times_us.clear();
+            wrote |= self.laser_cut_off(at_us, CutBy::Restart)?;
         }
         wrote |= self.emit_laser(t_us)?;
         let runs = self.sensors.gps.poll_output_runs(t_us);
@@ -657,6 +673,20 @@ impl<'c, W: World> Engine<'c, W> {
                 ..GpsReplayOptions::default()
             },
         ));
+    }
+
+    /// The laser stopped sending mid-telegram at `at_us` (a power cycle, a request that cut
+    /// its scan short): hands on what left before, then ends the telegram under way. Returns
+    /// whether anything was written.
+    fn laser_cut_off(&mut self, at_us: u64, by: CutBy) -> io::Result<bool> {
+        let mut wrote = self.emit_laser(at_us)?;
+        if let Some(piece) = self.tap.cut() {
+            self.cut_by = by;
+            wrote |= self.write_laser_piece(piece, self.laser_sent_baud)?;
+        }
+        // Every scan begun has been accounted for.
+        self.scan_times_us.clear();
+        Ok(wrote)
     }
 
     fn emit_laser(&mut self, t_us: u64) -> io::Result<bool> {
@@ -746,7 +776,10 @@ impl<'c, W: World> Engine<'c, W> {
             .unwrap_or(self.laser_polled_us);
         self.sent.scan_telegrams += 1;
         if cut {
-            self.sent.scan_telegrams_cut += 1;
+            match self.cut_by {
+                CutBy::Restart => self.sent.scan_telegrams_cut += 1,
+                CutBy::Request => self.sent.scan_telegrams_interrupted += 1,
+            }
         } else if let Some(values) = scan_values(bytes) {
             let index = self.sent.scan_telegrams_whole as usize;
             self.sent.scan_telegrams_whole += 1;

@@ -59,6 +59,9 @@ pub struct Injected {
     pub gps: InjectedFaults,
     /// Scan telegrams cut short by a power cycle.
     pub scan_telegrams_cut_by_restart: u64,
+    /// Scan telegrams the laser cut short because the board sent a request (not a fault:
+    /// the sensor's own behaviour, §5).
+    pub scan_telegrams_interrupted: u64,
     /// Events.
     pub events: EventsInjected,
 }
@@ -154,6 +157,7 @@ impl RunSummary {
                 laser: laser_injected,
                 gps: gps_injected,
                 scan_telegrams_cut_by_restart: engine.sent.scan_telegrams_cut,
+                scan_telegrams_interrupted: engine.sent.scan_telegrams_interrupted,
                 events: engine.events,
             },
             counted: Counted {

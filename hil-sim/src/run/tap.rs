@@ -36,7 +36,8 @@ pub enum Piece {
         bytes: Vec<u8>,
         /// Whether it is a `B0h` scan.
         is_scan: bool,
-        /// Whether the sensor stopped before its end (power cycle).
+        /// Whether the sensor stopped before its end (power cycle, or a request that
+        /// interrupted a scan).
         cut: bool,
     },
     /// The first bytes of a telegram the sensor stopped sending before its command byte,
