@@ -84,14 +84,31 @@ pub enum Line {
     Port(TTYPort),
     /// A pseudo-terminal whose board end an emulated UART (QEMU's) opened, which passes every
     /// byte whatever the rates: the rate the board's UART listens at is what the board
-    /// reports, kept in `board_baud`, and bytes sent at another rate are garbled as a real UART
+    /// reports ([`ReportedBaud`]), and bytes sent at another rate are garbled as a real UART
     /// would hear them.
     Emulated {
         /// The pty.
         link: PtyLink,
-        /// The board's rate, Bd.
-        board_baud: Arc<AtomicU32>,
+        /// The board's rate, as it reports it.
+        board_baud: Arc<dyn ReportedBaud>,
     },
+}
+
+/// The rate an emulated board's UART listens at, as the board reports it on another line.
+pub trait ReportedBaud: Send + Sync {
+    /// The rate, after taking in every report the board made before the bytes read from its
+    /// UART so far: the engine asks right after reading them, so that a request sent just
+    /// after a rate change is heard at the new rate.
+    ///
+    /// # Errors
+    /// When the line with the reports fails.
+    fn baud(&self) -> io::Result<u32>;
+}
+
+impl ReportedBaud for AtomicU32 {
+    fn baud(&self) -> io::Result<u32> {
+        Ok(self.load(Ordering::SeqCst))
+    }
 }
 
 impl Line {
@@ -199,7 +216,7 @@ impl Endpoint {
     fn board_baud(&mut self) -> io::Result<u32> {
         match (&self.board, &mut self.line) {
             (Some(_), Line::Pty(link)) => link.board_baud(),
-            (_, Line::Emulated { board_baud, .. }) => Ok(board_baud.load(Ordering::SeqCst)),
+            (_, Line::Emulated { board_baud, .. }) => board_baud.baud(),
             (_, line) => line.device().baud_rate().map_err(io::Error::other),
         }
     }

@@ -47,8 +47,8 @@ use crate::replay::{
 };
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
-pub use engine::Line;
 use engine::{Endpoint, Engine, Sensors, Wiring};
+pub use engine::{Line, ReportedBaud};
 use estimator::Estimator;
 use host_side::{DecodedScan, HostSide, ScanRecord};
 pub use summary::RunSummary;
