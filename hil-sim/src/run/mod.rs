@@ -16,10 +16,10 @@
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host
-//! or counted as rejected by the system itself — by the firmware (scan periods with bytes but
-//! no valid telegram, [`firmware::sick::ScanSlots`]) or by the host (gaps in the board's scan
-//! counter: dropped on the board or lost on the link). `accounting_balanced` says whether
-//! `delivered intact + counted rejected = emitted`.
+//! or counted as rejected by the system itself — by the firmware (scan periods between valid
+//! telegrams, or with bytes but no valid telegram, [`firmware::sick::ScanSlots`]) or by the
+//! host (gaps in the board's scan counter: dropped on the board or lost on the link).
+//! `accounting_balanced` says whether `delivered intact + counted rejected = emitted`.
 
 pub mod engine;
 pub mod estimator;

@@ -69,7 +69,8 @@ pub struct Injected {
 /// What the system counted.
 #[derive(Debug, Clone, Serialize)]
 pub struct Counted {
-    /// Firmware: scan periods with bytes but no valid scan.
+    /// Firmware: scans missed (scan periods between valid scans, or with bytes but no valid
+    /// scan).
     pub firmware_scans_missed: u32,
     /// Firmware: laser telegrams whose CRC failed.
     pub firmware_laser_crc_errors: u32,
