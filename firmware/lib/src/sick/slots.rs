@@ -39,10 +39,11 @@
 //! another baud rate (`90h` at 9 600 Bd reads as noise at 500 kBd). The grid is anchored anew
 //! at the first byte after the break, and slots counted after it become certain only when
 //! another telegram is accepted, counting as missed only then; when the session ends first
-//! ([`ScanSlots::end`], the stream watchdog), they are discarded. A damaged last telegram
-//! before a break that never resumes, or whose every byte was lost, cannot be told from
-//! silence; the last bytes of one read more than `(P − A)/2` late count the slot after it
-//! too. These are the limits of this count.
+//! ([`ScanSlots::end`], the stream watchdog), they are discarded.
+//!
+//! The limits of this count: a telegram lost whole after the last accepted one (or before
+//! the first) cannot be told from silence, and the last bytes of a damaged telegram there
+//! read more than `(P − A)/2` late count the slot after it too.
 
 /// A silence after which bytes are not taken for the stream's telegrams until one is
 /// accepted, µs.
