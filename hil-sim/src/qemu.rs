@@ -17,9 +17,11 @@
 //!   the rate. A lock-step run with the image's configuration ([`image_bring_up`]) is
 //!   [`crate::run::run_with_bring_up`].
 //! * **Baud rates**: QEMU's USART passes every byte whatever its divider says. The image
-//!   reports each rate it sets (`baud laser 500000`), and the laser and GPS lines are
-//!   [`Line::Emulated`]: bytes the emulators send at another rate are garbled as a real UART
-//!   would hear them, as in the lock-step runs.
+//!   reports each rate it sets (`baud laser 500000`) before it sends at it, and the laser and
+//!   GPS lines are [`Line::Emulated`]: bytes the emulators send at another rate are garbled as
+//!   a real UART would hear them, as in the lock-step runs. The engine takes in the debug
+//!   line's reports each time it asks for a rate, right after reading the board's bytes, so a
+//!   request sent just after a rate change is heard at the new rate.
 //! * **Time**: `-icount shift=3` runs the core at one instruction per 8 ns of QEMU's virtual
 //!   clock (125 MIPS), on which the image counts its cycles: they count instructions, not the
 //!   host's speed. The image's own clock is the host's, read by semihosting, since the virtual
@@ -43,7 +45,7 @@ use serde::Serialize;
 use serialport::{SerialPort, TTYPort};
 
 use crate::pty::PtyLink;
-use crate::run::{Line, RunOptions, RunSummary, WallLines, run_on};
+use crate::run::{Line, ReportedBaud, RunOptions, RunSummary, WallLines, run_on};
 
 /// Where `tests/run.sh` builds the image, relative to the repository root.
 pub const DEFAULT_ELF: &str =
@@ -72,6 +74,8 @@ const START_TIMEOUT: Duration = Duration::from_secs(10);
 const MEASURE_WAIT: Duration = Duration::from_millis(2_500);
 /// Debug lines quoted in an error message.
 const LOG_LINES: usize = 50;
+/// How often the debug line's reader looks for new lines.
+const DEBUG_POLL: Duration = Duration::from_millis(2);
 /// The laser's rate at power-up, until the image says otherwise.
 const LASER_POWER_UP_BAUD: u32 = 9_600;
 /// The rate the image's GPS USART listens at (`GPS_BAUD` in `firmware/qemu`), and so the rate
@@ -233,6 +237,9 @@ impl DebugLog {
 
 /// The debug line's reader and what it found.
 struct DebugChannel {
+    /// The debug line, read by whoever needs its news first: the reader thread, or the
+    /// engine asking for a UART's rate ([`ReportedUart`]).
+    reader: Mutex<DebugReader>,
     log: Mutex<DebugLog>,
     changed: Condvar,
     laser_baud: Arc<AtomicU32>,
@@ -240,9 +247,66 @@ struct DebugChannel {
     stop: AtomicBool,
 }
 
+/// The debug pty and the start of a line not complete yet.
+struct DebugReader {
+    link: Option<PtyLink>,
+    pending: Vec<u8>,
+}
+
 impl DebugChannel {
+    fn new(link: Option<PtyLink>) -> DebugChannel {
+        DebugChannel {
+            reader: Mutex::new(DebugReader {
+                link,
+                pending: Vec::new(),
+            }),
+            log: Mutex::new(DebugLog::default()),
+            changed: Condvar::new(),
+            laser_baud: Arc::new(AtomicU32::new(LASER_POWER_UP_BAUD)),
+            gps_baud: Arc::new(AtomicU32::new(GPS_BAUD)),
+            stop: AtomicBool::new(false),
+        }
+    }
+
     fn lock(&self) -> MutexGuard<'_, DebugLog> {
         self.log.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Takes in every complete line the image has written so far, without waiting.
+    ///
+    /// # Errors
+    /// When the pty fails (QEMU exited).
+    fn pump(&self) -> io::Result<()> {
+        let mut reader = self.reader.lock().unwrap_or_else(PoisonError::into_inner);
+        let DebugReader { link, pending } = &mut *reader;
+        let Some(link) = link.as_mut() else {
+            return Ok(());
+        };
+        let port: &mut TTYPort = &mut link.device;
+        port.set_timeout(Duration::ZERO).map_err(io::Error::other)?;
+        let mut buf = [0u8; 256];
+        loop {
+            match port.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => pending.extend_from_slice(&buf[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
+                    ) =>
+                {
+                    break;
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+        // In order, still holding the reader: a concurrent pump sees the lines after these.
+        while let Some(end) = pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = pending.drain(..=end).collect();
+            self.on_line(String::from_utf8_lossy(&line).trim_end());
+        }
+        Ok(())
     }
 
     fn on_line(&self, line: &str) {
@@ -328,31 +392,27 @@ fn release(
     }
 }
 
-/// Reads debug lines from `link` until told to stop or the line fails.
-fn read_debug(mut link: PtyLink, debug: Arc<DebugChannel>) {
-    let port: &mut TTYPort = &mut link.device;
-    if port.set_timeout(Duration::from_millis(100)).is_err() {
-        return;
-    }
-    let mut pending = Vec::new();
-    let mut buf = [0u8; 256];
+/// Takes in the debug lines as they come until told to stop or the line fails.
+fn read_debug(debug: Arc<DebugChannel>) {
     while !debug.stop.load(Ordering::SeqCst) {
-        match port.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => {
-                pending.extend_from_slice(&buf[..n]);
-                while let Some(end) = pending.iter().position(|&b| b == b'\n') {
-                    let line: Vec<u8> = pending.drain(..=end).collect();
-                    debug.on_line(String::from_utf8_lossy(&line).trim_end());
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-                ) => {}
-            Err(_) => break,
+        if debug.pump().is_err() {
+            break;
         }
+        thread::sleep(DEBUG_POLL);
+    }
+}
+
+/// A USART's rate as the image reports it on its debug line ([`ReportedBaud`]).
+struct ReportedUart {
+    debug: Arc<DebugChannel>,
+    baud: Arc<AtomicU32>,
+}
+
+impl ReportedBaud for ReportedUart {
+    fn baud(&self) -> io::Result<u32> {
+        // The image reports a new rate on its debug line before it sends at it.
+        self.debug.pump()?;
+        Ok(self.baud.load(Ordering::SeqCst))
     }
 }
 
@@ -434,16 +494,10 @@ impl QemuBoard {
                 }
             });
         }
-        let shared = Arc::new(DebugChannel {
-            log: Mutex::new(DebugLog::default()),
-            changed: Condvar::new(),
-            laser_baud: Arc::new(AtomicU32::new(LASER_POWER_UP_BAUD)),
-            gps_baud: Arc::new(AtomicU32::new(GPS_BAUD)),
-            stop: AtomicBool::new(false),
-        });
+        let shared = Arc::new(DebugChannel::new(Some(debug)));
         let reader = {
             let shared = Arc::clone(&shared);
-            thread::spawn(move || read_debug(debug, shared))
+            thread::spawn(move || read_debug(shared))
         };
         let board = QemuBoard {
             child,
@@ -461,11 +515,17 @@ impl QemuBoard {
         let lines = WallLines {
             laser: Line::Emulated {
                 link: laser,
-                board_baud: Arc::clone(&board.debug.laser_baud),
+                board_baud: Arc::new(ReportedUart {
+                    debug: Arc::clone(&board.debug),
+                    baud: Arc::clone(&board.debug.laser_baud),
+                }),
             },
             gps: Line::Emulated {
                 link: gps,
-                board_baud: Arc::clone(&board.debug.gps_baud),
+                board_baud: Arc::new(ReportedUart {
+                    debug: Arc::clone(&board.debug),
+                    baud: Arc::clone(&board.debug.gps_baud),
+                }),
             },
             host: Line::Pty(host),
             // The image's GPS USART, as it reports at boot (`gps_baud` above follows it).
@@ -583,13 +643,7 @@ mod tests {
 
     #[test]
     fn debug_lines_set_the_reported_rates_and_flags() {
-        let debug = DebugChannel {
-            log: Mutex::new(DebugLog::default()),
-            changed: Condvar::new(),
-            laser_baud: Arc::new(AtomicU32::new(9_600)),
-            gps_baud: Arc::new(AtomicU32::new(0)),
-            stop: AtomicBool::new(false),
-        };
+        let debug = DebugChannel::new(None);
         debug.on_line("baud laser 500000");
         debug.on_line("baud gps 115200");
         debug.on_line("boot stack_bytes=100");

@@ -20,7 +20,8 @@ pub struct LinkCounters {
     /// Whole frames dropped because the outgoing queue was full.
     pub dropped_frames: u32,
     /// Units the sender sent that were not accepted, as far as the receiver can tell (laser:
-    /// scan periods in which bytes arrived but no valid scan; GPS: lines rejected).
+    /// scan periods between valid scans, or in which bytes arrived but no valid scan; GPS:
+    /// lines rejected).
     pub missed: u32,
 }
 

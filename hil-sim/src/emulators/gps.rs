@@ -151,6 +151,8 @@ pub struct GpsEmulator {
     out: Vec<TxRun>,
     last_now_us: u64,
     counters: GpsCounters,
+    /// No epoch at or after this time is computed.
+    epochs_end_us: Option<u64>,
 }
 
 impl core::fmt::Debug for GpsEmulator {
@@ -182,7 +184,21 @@ impl GpsEmulator {
             out: Vec::new(),
             last_now_us: 0,
             counters: GpsCounters::default(),
+            epochs_end_us: None,
         }
+    }
+
+    /// From `end_us` on, no epoch is computed; the bursts of earlier ones leave whole.
+    pub fn stop_epochs_at(&mut self, end_us: u64) {
+        self.epochs_end_us = Some(end_us);
+    }
+
+    /// When the burst of the next epoch starts, if there is one.
+    fn next_burst_us(&self) -> Option<u64> {
+        let epoch_us = self.epoch_us(self.next_epoch);
+        self.epochs_end_us
+            .is_none_or(|end| epoch_us < end)
+            .then_some(epoch_us + self.options.output_delay_us)
     }
 
     /// Sets the true position and motion used from the next epoch on (and drops a
@@ -252,11 +268,9 @@ impl GpsEmulator {
     pub fn poll_output_runs(&mut self, now_us: u64) -> Vec<TxRun> {
         let now_us = now_us.max(self.last_now_us);
         self.last_now_us = now_us;
-        loop {
-            let burst_us = self.epoch_us(self.next_epoch) + self.options.output_delay_us;
-            if burst_us > now_us {
-                break;
-            }
+        while let Some(burst_us) = self.next_burst_us()
+            && burst_us <= now_us
+        {
             let epoch_us = self.epoch_us(self.next_epoch);
             self.next_epoch += 1;
             let period_us = 1_000_000 / u64::from(self.options.rate_hz);
@@ -273,14 +287,13 @@ impl GpsEmulator {
         out
     }
 
-    /// When the next byte leaves or the next burst starts.
+    /// When the next byte leaves or the next burst starts (`None` once
+    /// [`Self::stop_epochs_at`] has ended the output and every byte has left).
     pub fn next_output_us(&self) -> Option<u64> {
-        let burst_us = self.epoch_us(self.next_epoch) + self.options.output_delay_us;
-        Some(
-            self.line
-                .next_byte_end_us()
-                .map_or(burst_us, |byte_us| byte_us.min(burst_us)),
-        )
+        [self.line.next_byte_end_us(), self.next_burst_us()]
+            .into_iter()
+            .flatten()
+            .min()
     }
 
     /// Computes the epoch at `epoch_us` and writes its sentences.
@@ -635,5 +648,21 @@ mod tests {
         // 115 200 Bd: one byte per 86.8 µs.
         assert_eq!(gps.poll_output(20_087), b"$");
         assert_eq!(gps.next_output_us(), Some(20_000 + 174));
+    }
+
+    #[test]
+    fn stopped_output_ends_with_whole_bursts() {
+        let mut gps = GpsEmulator::new(GpsEmulatorOptions::default());
+        gps.stop_epochs_at(230_000);
+        // Polled just after the stop: the epoch at 200 ms is still on the line.
+        let mut bytes = gps.poll_output(230_001);
+        assert!(gps.next_output_us().is_some());
+        bytes.extend(gps.poll_output(10_000_000));
+        assert_eq!(gps.next_output_us(), None);
+        // Three epochs (0, 100, 200 ms), each ending with GST.
+        assert_eq!(gps.counters().epochs, 3);
+        let text = String::from_utf8(bytes).unwrap();
+        assert_eq!(text.matches("GST,").count(), 3);
+        assert!(text.ends_with("\r\n"));
     }
 }

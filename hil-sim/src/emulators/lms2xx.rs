@@ -43,12 +43,18 @@
 //! * Requests that parse but are not emulated (sub-range streaming, mean values, …) get ACK
 //!   and `92h`.
 //! * Streaming (§7, §9): the mirror turns at 75 Hz from the moment the sensor came up; a
-//!   complete scan ends every 1, 2 or 4 rotations (75, 37.5, 18.75 scans/s). A scan is sent
-//!   when it ends if the line is free then; otherwise it is skipped. At 500 kBd every scan is
-//!   sent; at 38 400 Bd a 0.5° scan (732 bytes, 191 ms) is followed by 7 skipped ones. The
-//!   manual's table says 8 at 38 400 Bd (§9): the real sensor apparently also lets the
-//!   first scan ending after the line is free go; this emulator skips exactly what the line
-//!   cannot carry.
+//!   complete scan ends every 1, 2 or 4 rotations (75, 37.5, 18.75 scans/s), numbered from
+//!   that moment. When a scan telegram takes longer on the line than a scan (`m` scan
+//!   periods, rounded up), only every `m`-th scan is sent, those whose number is a multiple
+//!   of `m`: the scans sent lie on a fixed grid of the sensor's clock, whenever streaming
+//!   was asked for, as the mirror spins on regardless. At 500 kBd every scan is sent; at
+//!   38 400 Bd a 0.5° scan (732 bytes, 191 ms) goes out every 213 ms, with 7 skipped ones in
+//!   between. (The manual's table says 8 at 38 400 Bd, §9: the real sensor apparently also
+//!   lets the first scan ending after the line is free go; this emulator skips exactly what
+//!   the line cannot carry.) A scan is measured from the pose the sensor has when it ends
+//!   ([`Lms2xx::set_motion`]). [`Lms2xx::stream_starts`] records when each stream began and
+//!   when its first scan went out; [`Lms2xx::stop_scans_at`] ends the output at a fixed
+//!   time, letting what is on the line leave whole.
 //! * Replay ([`Lms2xx::replay`]): instead of measuring the world, streamed scans carry the
 //!   ranges of recorded scans taken from a [`ScanSource`], in order, each exactly once. At
 //!   [`ReplayPace::Recorded`] the log's clock is anchored at the first recorded scan, which
@@ -78,7 +84,7 @@ use super::lms_variant::{ROTATION_US_DENOMINATOR, ROTATION_US_NUMERATOR, Variant
 use super::range_model::{
     DEFAULT_MAX_RANGE_M, DEFAULT_RANGE_SIGMA_M, RangeModel, beam_bearing_rad, encode_range,
 };
-use super::tx_line::{TxLine, TxRun};
+use super::tx_line::{BITS_PER_BYTE, TxLine, TxRun, byte_offset_us};
 use crate::world::{Room, SensorPose, World};
 
 /// The status byte of every telegram: no error, LMS type 6 (§8).
@@ -196,7 +202,8 @@ pub struct Lms2xxCounters {
     pub power_on_messages: u32,
     /// Streamed and requested `B0h` telegrams sent.
     pub scans_sent: u32,
-    /// Streamed scans not sent because the line was busy.
+    /// Streamed scans not sent because the line was busy or they were not on the grid of
+    /// the scans the line can carry.
     pub scans_skipped: u32,
     /// Scans cut short by a request.
     pub scans_interrupted: u32,
@@ -279,6 +286,37 @@ pub struct Lms2xx<W = Room> {
     counters: Lms2xxCounters,
     /// Recorded scans streamed instead of measured ones.
     replay: Option<Replay>,
+    /// Where the sensor is at each moment, when it moves.
+    motion: Option<Motion>,
+    /// Scan telegrams on the line whose first byte has not left: (when it leaves, when the
+    /// scan was measured), µs.
+    scans_queued: VecDeque<(u64, u64)>,
+    /// When the scans whose first byte has left were measured, µs, until taken.
+    scans_started: Vec<u64>,
+    /// Every stream so far.
+    stream_starts: Vec<StreamStart>,
+    /// No streamed scan goes out from this time on.
+    scans_end_us: Option<u64>,
+}
+
+/// The sensor's pose as a function of time (µs), shared by the emulator's clones.
+#[derive(Clone)]
+struct Motion(std::sync::Arc<dyn Fn(u64) -> SensorPose + Send + Sync>);
+
+impl std::fmt::Debug for Motion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Motion")
+    }
+}
+
+/// A stream of scans as the sensor began it ([`Lms2xx::stream_starts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct StreamStart {
+    /// When the sensor switched to streaming (its `A0h` reply had left), µs.
+    pub streaming_us: u64,
+    /// When the first scan it sends ends (its telegram starts then), µs: a request for the
+    /// stream may come up to `first_scan_us - streaming_us` later and the same scans go out.
+    pub first_scan_us: u64,
 }
 
 impl Lms2xx<Room> {
@@ -327,6 +365,11 @@ impl<W: World> Lms2xx<W> {
             last_now_us: 0,
             counters: Lms2xxCounters::default(),
             replay: None,
+            motion: None,
+            scans_queued: VecDeque::new(),
+            scans_started: Vec::new(),
+            stream_starts: Vec::new(),
+            scans_end_us: None,
             ranges,
             options,
         };
@@ -380,7 +423,8 @@ impl<W: World> Lms2xx<W> {
             .map(|q| q.not_before_us.max(self.line.free_at_us()));
         let replay_done = self.replay.as_ref().is_some_and(Replay::is_finished);
         let scan = (self.mode == Mode::Streaming && !replay_done)
-            .then(|| self.rotation_end_us(self.next_scan_rotation));
+            .then(|| self.rotation_end_us(self.next_scan_rotation))
+            .filter(|&at| self.scans_end_us.is_none_or(|end| at < end));
         [byte, item, scan].into_iter().flatten().min()
     }
 
@@ -390,8 +434,14 @@ impl<W: World> Lms2xx<W> {
     pub fn power_cycle(&mut self, now_us: u64) {
         let now_us = self.advance(now_us);
         self.line.cut(now_us);
+        self.scans_queued.clear();
         self.queue.clear();
         self.restart(now_us, self.options.timing.power_on_delay_us);
+    }
+
+    /// Whether bytes put on the line have not all left yet.
+    pub fn is_transmitting(&self) -> bool {
+        self.line.next_byte_end_us().is_some()
     }
 
     /// The current baud rate.
@@ -434,9 +484,33 @@ impl<W: World> Lms2xx<W> {
         self.ranges.pose
     }
 
-    /// Moves the sensor; scans measured from now on see the world from `pose`.
+    /// Moves the sensor; scans measured from now on see the world from `pose` (and a motion
+    /// set with [`Self::set_motion`] is dropped).
     pub fn set_pose(&mut self, pose: SensorPose) {
+        self.motion = None;
         self.ranges.pose = pose;
+    }
+
+    /// Moves the sensor along `pose_at` (µs to pose): each scan sees the world from the pose
+    /// at the moment it ends, however late the emulator is polled.
+    pub fn set_motion(&mut self, pose_at: impl Fn(u64) -> SensorPose + Send + Sync + 'static) {
+        self.motion = Some(Motion(std::sync::Arc::new(pose_at)));
+    }
+
+    /// When each scan telegram whose first byte has left the line since the last call was
+    /// measured (the end of its scan), µs, in the order they went out.
+    pub fn take_scans_started(&mut self) -> Vec<u64> {
+        std::mem::take(&mut self.scans_started)
+    }
+
+    /// Every stream of scans begun so far, in order.
+    pub fn stream_starts(&self) -> &[StreamStart] {
+        &self.stream_starts
+    }
+
+    /// From `end_us` on, no streamed scan goes out; what is on the line then leaves whole.
+    pub fn stop_scans_at(&mut self, end_us: u64) {
+        self.scans_end_us = Some(end_us);
     }
 
     /// The range model (world, pose, noise), e.g. to compute the expected ranges.
@@ -486,7 +560,8 @@ impl<W: World> Lms2xx<W> {
             let free_us = self.line.free_at_us();
             let item_us = self.queue.front().map(|q| q.not_before_us.max(free_us));
             let scan_us = (self.mode == Mode::Streaming)
-                .then(|| self.rotation_end_us(self.next_scan_rotation));
+                .then(|| self.rotation_end_us(self.next_scan_rotation))
+                .filter(|&at| self.scans_end_us.is_none_or(|end| at < end));
             match (item_us, scan_us) {
                 (Some(t), scan) if t <= now_us && scan.is_none_or(|s| t <= s) => {
                     if let Some(queued) = self.queue.pop_front() {
@@ -503,6 +578,12 @@ impl<W: World> Lms2xx<W> {
         self.line.transmit_until(now_us, &mut self.out);
         let after: usize = self.out[merge_from..].iter().map(|r| r.bytes.len()).sum();
         self.counters.bytes_sent += (after - before) as u64;
+        while let Some(&(first_byte_us, measured_us)) = self.scans_queued.front()
+            && first_byte_us <= now_us
+        {
+            self.scans_started.push(measured_us);
+            self.scans_queued.pop_front();
+        }
         now_us
     }
 
@@ -535,11 +616,18 @@ impl<W: World> Lms2xx<W> {
                 };
                 self.counters.replies += 1;
                 self.counters.scans_sent += 1;
-                self.line.push(at_us, self.baud, bytes, false);
+                self.push_scan(at_us, self.rotation_end_us(rotation), bytes, false);
             }
             Item::Apply(Change::Mode(mode)) => {
                 if mode == Mode::Streaming && self.mode != Mode::Streaming {
                     self.next_scan_rotation = self.next_scan_rotation_after(at_us);
+                    let per_scan = self.variant.rotations_per_scan();
+                    let grid = self.scans_per_telegram() * per_scan;
+                    let first_rotation = self.next_scan_rotation.div_ceil(grid) * grid;
+                    self.stream_starts.push(StreamStart {
+                        streaming_us: at_us,
+                        first_scan_us: self.rotation_end_us(first_rotation),
+                    });
                 }
                 self.mode = mode;
             }
@@ -551,11 +639,14 @@ impl<W: World> Lms2xx<W> {
         }
     }
 
-    /// A streamed scan ends at `at_us`: sent if the line is free, else skipped.
+    /// A streamed scan ends at `at_us`: sent if it lies on the grid of the scans the line
+    /// can carry and the line is free, else skipped.
     fn complete_scan(&mut self, at_us: u64) {
         let rotation = self.next_scan_rotation;
-        self.next_scan_rotation += self.variant.rotations_per_scan();
-        if self.line.free_at_us() <= at_us {
+        let per_scan = self.variant.rotations_per_scan();
+        self.next_scan_rotation += per_scan;
+        let on_grid = (rotation / per_scan) % self.scans_per_telegram() == 0;
+        if on_grid && self.line.free_at_us() <= at_us {
             let bytes = match self.replay.as_mut() {
                 None => self.measure_scan(rotation),
                 Some(replay) => match replay.take_due(at_us) {
@@ -565,15 +656,46 @@ impl<W: World> Lms2xx<W> {
                 },
             };
             self.counters.scans_sent += 1;
-            self.line.push(
-                at_us,
-                self.baud,
-                bytes,
-                self.options.requests_interrupt_output,
-            );
+            self.push_scan(at_us, at_us, bytes, self.options.requests_interrupt_output);
         } else {
             self.counters.scans_skipped += 1;
         }
+    }
+
+    /// Puts the telegram of a scan measured at `measured_us` on the line at `at_us`.
+    fn push_scan(&mut self, at_us: u64, measured_us: u64, bytes: Vec<u8>, interruptible: bool) {
+        if bytes.is_empty() {
+            return;
+        }
+        let first_byte_us = at_us.max(self.line.free_at_us()) + byte_offset_us(1, self.baud);
+        self.line.push(at_us, self.baud, bytes, interruptible);
+        self.scans_queued.push_back((first_byte_us, measured_us));
+    }
+
+    /// How many scan periods a scan telegram takes on the line at the current rate, rounded
+    /// up: only every so many scans is sent.
+    fn scans_per_telegram(&self) -> u64 {
+        let bits_us = self.scan_telegram_len() as u64 * BITS_PER_BYTE * 1_000_000;
+        let scan_us_times_baud =
+            self.variant.rotations_per_scan() * ROTATION_US_NUMERATOR * u64::from(self.baud);
+        (bits_us * ROTATION_US_DENOMINATOR)
+            .div_ceil(scan_us_times_baud.max(1))
+            .max(1)
+    }
+
+    /// The length of a scan telegram of the active variant and configuration.
+    fn scan_telegram_len(&self) -> usize {
+        let mut values = heapless::Vec::new();
+        // Every variant fits (at most 401 values).
+        let _ = values.resize(usize::from(self.variant.values_per_scan()), 0);
+        ScanRepr {
+            unit: RangeUnit::Cm,
+            partial_raster: None,
+            values,
+            indices: self.config.real_time_indices().then_some((0, 0)),
+            status: STATUS_OK,
+        }
+        .buffer_len()
     }
 
     /// Back to the power-on state at `at_us`; `90h` after `delay_us`.
@@ -650,6 +772,8 @@ impl<W: World> Lms2xx<W> {
         }
         if self.options.requests_interrupt_output && self.line.interrupt(now_us) {
             self.counters.scans_interrupted += 1;
+            // A scan cut before its first byte left never went out.
+            self.scans_queued.clear();
         }
         let ack_us = now_us + self.options.timing.ack_delay_us;
         if telegram.check_crc().is_err() {
@@ -804,6 +928,9 @@ impl<W: World> Lms2xx<W> {
     /// Measures a complete scan ending with mirror rotation `rotation` and builds its
     /// `B0h` telegram.
     fn measure_scan(&mut self, rotation: u64) -> Vec<u8> {
+        if let Some(Motion(pose_at)) = &self.motion {
+            self.ranges.pose = pose_at(self.rotation_end_us(rotation));
+        }
         let unit = self.config.unit().unwrap_or(RangeUnit::Cm);
         let words = self
             .ranges
@@ -1528,10 +1655,77 @@ mod tests {
         for pair in stamps.windows(2) {
             assert!((pair[1] - pair[0]).abs_diff(213_333) < 1_500, "{pair:?}");
         }
-        // Seven skipped scans between two sent ones, and up to seven after the last.
+        // Seven skipped scans between two sent ones, up to seven before the first and after
+        // the last.
         let c = lms.counters();
         let between = 7 * (c.scans_sent - 1);
-        assert!((between..=between + 7).contains(&c.scans_skipped), "{c:?}");
+        assert!((between..=between + 14).contains(&c.scans_skipped), "{c:?}");
+    }
+
+    /// A moving sensor at 38 400 Bd whose stream is asked for at `request_us`, polled every
+    /// `poll_us`: the scans' measurement times, every byte it sent, and its stream starts.
+    fn slow_stream(request_us: u64, poll_us: u64) -> (Vec<u64>, Vec<u8>, Vec<StreamStart>) {
+        let mut lms = running(Lms2xxOptions {
+            baud: 38_400,
+            variant: Variant::new(180, 50),
+            ..Lms2xxOptions::default()
+        });
+        lms.set_motion(|t_us| SensorPose::new(t_us as f64 * 1e-6, 0.0, 0.0));
+        lms.stop_scans_at(1_500_000);
+        let mut now_us = 0;
+        let mut bytes = Vec::new();
+        let mut measured = Vec::new();
+        while now_us < 2_000_000 {
+            if (now_us..now_us + poll_us).contains(&request_us) {
+                lms.receive(&hex("02 00 02 00 20 24 34 08"), 38_400, request_us);
+            }
+            now_us += poll_us;
+            bytes.extend(lms.poll_output(now_us));
+            measured.extend(lms.take_scans_started());
+        }
+        (measured, bytes, lms.stream_starts().to_vec())
+    }
+
+    #[test]
+    fn slow_streams_keep_the_mirror_grid_whenever_they_are_asked_for() {
+        // The sensor streams 105 ms after the request (ACK, mode switch, A0h); it sends every
+        // eighth scan, those ending at multiples of 213.3 ms since it came up. Asked for
+        // anywhere before the grid point at 213.3 ms less that, the stream begins there and
+        // sends the same scans, measured at the same poses, however often it is polled.
+        let (measured, bytes, starts) = slow_stream(0, 1_000);
+        assert_eq!(
+            measured,
+            [
+                213_333, 426_666, 640_000, 853_333, 1_066_666, 1_280_000, 1_493_333
+            ]
+        );
+        assert_eq!(starts.len(), 1);
+        assert_eq!(starts[0].first_scan_us, 213_333);
+        assert!(
+            (104_000..106_000).contains(&starts[0].streaming_us),
+            "{starts:?}"
+        );
+        for (request_us, poll_us) in [(0, 7_000), (50_000, 1_000), (100_000, 3_000)] {
+            let (m, b, _) = slow_stream(request_us, poll_us);
+            assert_eq!(
+                m, measured,
+                "asked at {request_us} µs, polled every {poll_us} µs"
+            );
+            assert!(
+                b == bytes,
+                "asked at {request_us} µs, polled every {poll_us} µs"
+            );
+        }
+        // Asked for too late for the first grid point: it starts at the next one.
+        let (m, _, starts) = slow_stream(120_000, 1_000);
+        assert_eq!(m, measured[1..]);
+        assert_eq!(starts[0].first_scan_us, 426_666);
+        // The scans were measured where the sensor was: different poses, different ranges.
+        let scan_of = |k: usize| {
+            let start = 10 + k * 732;
+            ScanRepr::parse(&Telegram::new_checked(&bytes[start..start + 732]).unwrap()).unwrap()
+        };
+        assert_ne!(scan_of(0).values, scan_of(5).values);
     }
 
     #[test]

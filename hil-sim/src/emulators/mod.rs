@@ -25,7 +25,7 @@ pub use gps::{GpsCounters, GpsEmulator, GpsEmulatorOptions, GpsTruth, Trajectory
 pub use lms_variant::Variant;
 pub use lms2xx::{
     BeamMapping, Lms2xx, Lms2xxCounters, Lms2xxOptions, Lms2xxTiming, RecordedScan, ReplayPace,
-    ReplayProgress, ScanSource, recorded_words,
+    ReplayProgress, ScanSource, StreamStart, recorded_words,
 };
 pub use range_model::RangeModel;
 pub use tx_line::{TxLine, TxRun};

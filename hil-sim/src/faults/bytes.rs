@@ -2,9 +2,10 @@
 //!
 //! [`ByteFaults`] transforms the bytes one sensor sends, chunk by chunk, in three steps:
 //!
-//! 1. **Truncate** (only [`ByteFaults::apply_telegram`]): with probability `truncate` a
-//!    telegram of at least two bytes keeps a prefix whose length is uniform in `1..len` and
-//!    loses the rest, as when the sensor resets or the cable is pulled mid-telegram.
+//! 1. **Truncate** (only [`ByteFaults::apply_telegram`], or a telegram passed piece by piece
+//!    with [`ByteFaults::begin_telegram`]): with probability `truncate` a telegram of at least
+//!    two bytes keeps a prefix whose length is uniform in `1..len` and loses the rest, as
+//!    when the sensor resets or the cable is pulled mid-telegram.
 //! 2. **Drop**: each remaining byte is lost with probability `drop`, as on a UART overrun.
 //! 3. **Flip**: each bit of the bytes that are left is inverted with probability `ber`.
 //!
@@ -108,6 +109,21 @@ pub struct ByteFaults {
     truncate: f64,
     truncate_rng: ChaCha8Rng,
     injected: InjectedFaults,
+    /// The telegram being passed piece by piece.
+    telegram: Option<Passing>,
+}
+
+/// A telegram passed piece by piece: how much of it is kept and what happened to it so far.
+#[derive(Debug, Clone, Copy)]
+struct Passing {
+    /// Bytes kept (the rest is cut).
+    kept: usize,
+    /// Bytes passed so far.
+    seen: usize,
+    /// Whether a byte was cut.
+    truncated: bool,
+    /// Whether a byte was cut, dropped or flipped.
+    damaged: bool,
 }
 
 impl ByteFaults {
@@ -134,6 +150,7 @@ impl ByteFaults {
             truncate: spec.truncate,
             truncate_rng,
             injected: InjectedFaults::default(),
+            telegram: None,
         }
     }
 
@@ -158,9 +175,18 @@ impl ByteFaults {
     /// Cuts `telegram`, one complete telegram, short with probability `truncate`, then drops
     /// bytes and flips bits in it like [`Self::apply`], and returns what is left.
     pub fn apply_telegram(&mut self, telegram: &[u8]) -> Vec<u8> {
-        self.injected.bytes_in += telegram.len() as u64;
+        self.begin_telegram(telegram.len());
+        let out = self.telegram_part(telegram);
+        self.end_telegram();
+        out
+    }
+
+    /// Begins a telegram of `len` bytes whose bytes follow piece by piece, as they leave the
+    /// sensor, through [`Self::telegram_part`]: decides now, with the same draws as
+    /// [`Self::apply_telegram`], how much of it is kept. Ends the telegram begun before, if any.
+    pub fn begin_telegram(&mut self, len: usize) {
+        self.end_telegram();
         self.injected.telegrams_in += 1;
-        let len = telegram.len();
         // A telegram of one byte cannot be cut short and costs no draw.
         let kept =
             if self.truncate > 0.0 && len >= 2 && self.truncate_rng.random_bool(self.truncate) {
@@ -168,16 +194,47 @@ impl ByteFaults {
             } else {
                 len
             };
-        let cut = len - kept;
+        self.telegram = Some(Passing {
+            kept,
+            seen: 0,
+            truncated: false,
+            damaged: false,
+        });
+    }
+
+    /// The next bytes of the telegram begun with [`Self::begin_telegram`]: those past the
+    /// part it keeps are cut, the others dropped and flipped like [`Self::apply`]. Returns
+    /// what is left. Without a telegram begun, the same as [`Self::apply`].
+    pub fn telegram_part(&mut self, bytes: &[u8]) -> Vec<u8> {
+        let Some(mut telegram) = self.telegram else {
+            return self.apply(bytes);
+        };
+        self.injected.bytes_in += bytes.len() as u64;
+        let keep = telegram.kept.saturating_sub(telegram.seen).min(bytes.len());
+        let cut = bytes.len() - keep;
+        telegram.seen += bytes.len();
         if cut > 0 {
-            self.injected.telegrams_truncated += 1;
             self.injected.bytes_cut += cut as u64;
+            if !telegram.truncated {
+                telegram.truncated = true;
+                self.injected.telegrams_truncated += 1;
+            }
         }
-        let (out, damaged) = self.drop_and_flip(&telegram[..kept]);
-        if damaged || cut > 0 {
+        let (out, damaged) = self.drop_and_flip(&bytes[..keep]);
+        telegram.damaged |= damaged || cut > 0;
+        self.telegram = Some(telegram);
+        out
+    }
+
+    /// The telegram begun with [`Self::begin_telegram`] is over: whole, or cut off by its
+    /// sender (then only what it sent counts, and it is cut short only if a byte past its
+    /// kept part was sent).
+    pub fn end_telegram(&mut self) {
+        if let Some(telegram) = self.telegram.take()
+            && telegram.damaged
+        {
             self.injected.telegrams_damaged += 1;
         }
-        out
     }
 
     /// Steps 2 and 3 of the module documentation; also returns whether anything was dropped
@@ -393,6 +450,33 @@ mod tests {
         assert!(injected.telegrams_damaged <= injected.telegrams_in);
         // The pattern has no two equal neighbours, so a dropped byte always shows.
         assert_eq!(injected.telegrams_damaged, damaged);
+    }
+
+    #[test]
+    fn a_telegram_passed_piece_by_piece_is_damaged_as_a_whole_one() {
+        let telegrams: Vec<Vec<u8>> = (0..300).map(|i| pattern(10 + i % 700)).collect();
+        let mut whole = faults(2e-3, 5e-3, 0.3, 4);
+        let mut pieces = whole.clone();
+        for (i, telegram) in telegrams.iter().enumerate() {
+            let expected = whole.apply_telegram(telegram);
+            pieces.begin_telegram(telegram.len());
+            let got: Vec<u8> = telegram
+                .chunks(1 + i % 37)
+                .flat_map(|chunk| pieces.telegram_part(chunk))
+                .collect();
+            pieces.end_telegram();
+            assert_eq!(got, expected, "telegram {i}");
+        }
+        assert_eq!(pieces.injected(), whole.injected());
+        assert!(whole.injected().telegrams_truncated > 0);
+        // Cut off by its sender before the part it keeps ends: not truncated by the fault.
+        let mut f = faults(0.0, 0.0, 1.0, 9);
+        f.begin_telegram(100);
+        let kept = f.telegram.map(|t| t.kept).unwrap();
+        assert_eq!(f.telegram_part(&pattern(kept)), pattern(kept));
+        f.end_telegram();
+        assert_eq!(f.injected().telegrams_truncated, 0);
+        assert_eq!(f.injected().telegrams_damaged, 0);
     }
 
     #[test]

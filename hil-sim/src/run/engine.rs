@@ -6,16 +6,23 @@
 //! 1. **Settle**: move every byte the board wrote to its reader (commands to the laser
 //!    emulator, frames to the host) and wait until the firmware has read every byte written
 //!    to it and its executor is idle, with no timer due. Nothing else can then happen at `t`.
-//! 2. **Emit**: carry out the fault events due (power cycle, GPS outage, unplugged link), give
-//!    the emulators the robot's true pose, and write what they sent by `t` — split into
-//!    telegrams by a [`TelegramTap`], garbled when sent at another baud rate than the board
-//!    listens at, then damaged by the byte faults. If anything was written, settle again.
+//! 2. **Emit**: carry out the fault events due (GPS outage, unplugged link; a power cycle at
+//!    its own time, after what the laser sent before it), and write what the emulators sent
+//!    by `t` — told apart into telegrams by a [`TelegramTap`] as the bytes leave the sensor,
+//!    garbled when sent at another baud rate than the board listens at (a telegram sent so
+//!    is held and garbled whole), then damaged by the byte faults. The emulators follow the
+//!    robot's true motion by themselves: each scan and each GPS epoch takes the pose at its
+//!    own time, however late it is polled. If anything was written, settle again.
 //! 3. **Advance** to the next event: an emulator's next output (at most every
 //!    [`QUANTUM_US`], so bytes arrive in chunks, as from a UART FIFO), a firmware timer, a
 //!    host ping, a fault, the end.
 //!
 //! The firmware sees the same bytes at the same virtual times whatever the host's speed, so a
 //! run is reproducible to the byte; `realtime` only waits for the wall clock before each step.
+//!
+//! The end: the emulators stop at the run's duration (no scan or epoch from then on), the
+//! telegrams and bursts on the lines leave whole, the board and the host drain, and the host
+//! asks for the final status.
 //!
 //! # Wall-clock wiring (a real board)
 //!
@@ -25,8 +32,13 @@
 //! time is the wall clock, and each line runs at the baud rate of the emulator that drives
 //! it: the laser line follows the emulated sensor through its baud switches, so a board
 //! listening at another rate hears what a real UART would. Everything the summary counts on
-//! the board comes from its own status report.
+//! the board comes from its own status report. What the emulators send does not depend on
+//! when the engine looks: the laser's scans lie on a fixed grid of its clock (a bring-up that
+//! ends a few milliseconds later still meets the same first scan) and each is measured at its
+//! own time, power cycles happen at their set time, and the output ends at a set time, so a
+//! board reacting a little later than the lock-step firmware receives the same scans and fixes.
 
+use std::collections::VecDeque;
 use std::io::{self, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -36,7 +48,7 @@ use firmware::sick::{ScanRepr, Telegram};
 use serialport::{SerialPort, TTYPort};
 
 use super::host_side::{HostSide, SentScan};
-use super::tap::{Segment, TelegramTap};
+use super::tap::{Piece, TelegramTap};
 use crate::board::Board;
 use crate::emulators::{GpsEmulator, GpsTruth, Lms2xx, garble};
 use crate::faults::{ByteFaults, FaultSpec};
@@ -61,6 +73,8 @@ const DRAIN_US: u64 = 200_000;
 const STATUS_WAIT_US: u64 = 500_000;
 /// How long an unplugged host link stays unplugged, µs.
 pub const UNPLUGGED_US: u64 = 300_000;
+/// Checks of a settle that only yield the CPU before it sleeps between checks.
+const SETTLE_YIELDS: u32 = 20;
 /// A settle that makes no progress for this long means the firmware hangs.
 const SETTLE_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -72,14 +86,31 @@ pub enum Line {
     Port(TTYPort),
     /// A pseudo-terminal whose board end an emulated UART (QEMU's) opened, which passes every
     /// byte whatever the rates: the rate the board's UART listens at is what the board
-    /// reports, kept in `board_baud`, and bytes sent at another rate are garbled as a real UART
+    /// reports ([`ReportedBaud`]), and bytes sent at another rate are garbled as a real UART
     /// would hear them.
     Emulated {
         /// The pty.
         link: PtyLink,
-        /// The board's rate, Bd.
-        board_baud: Arc<AtomicU32>,
+        /// The board's rate, as it reports it.
+        board_baud: Arc<dyn ReportedBaud>,
     },
+}
+
+/// The rate an emulated board's UART listens at, as the board reports it on another line.
+pub trait ReportedBaud: Send + Sync {
+    /// The rate, after taking in every report the board made before the bytes read from its
+    /// UART so far: the engine asks right after reading them, so that a request sent just
+    /// after a rate change is heard at the new rate.
+    ///
+    /// # Errors
+    /// When the line with the reports fails.
+    fn baud(&self) -> io::Result<u32>;
+}
+
+impl ReportedBaud for AtomicU32 {
+    fn baud(&self) -> io::Result<u32> {
+        Ok(self.load(Ordering::SeqCst))
+    }
 }
 
 impl Line {
@@ -187,7 +218,7 @@ impl Endpoint {
     fn board_baud(&mut self) -> io::Result<u32> {
         match (&self.board, &mut self.line) {
             (Some(_), Line::Pty(link)) => link.board_baud(),
-            (_, Line::Emulated { board_baud, .. }) => Ok(board_baud.load(Ordering::SeqCst)),
+            (_, Line::Emulated { board_baud, .. }) => board_baud.baud(),
             (_, line) => line.device().baud_rate().map_err(io::Error::other),
         }
     }
@@ -253,12 +284,34 @@ pub struct Sensors<W: World> {
 /// Counts of what the sensors sent.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SentCounts {
-    /// Scan telegrams that left the laser (whole or cut by a power cycle).
+    /// Scan telegrams that left the laser (whole, or cut short by a power cycle or a
+    /// request).
     pub scan_telegrams: u64,
     /// Of those, cut by a power cycle.
     pub scan_telegrams_cut: u64,
+    /// Of those, cut short by a request from the board (§5: a request interrupts a scan).
+    pub scan_telegrams_interrupted: u64,
     /// Scan telegrams sent whole.
     pub scan_telegrams_whole: u64,
+}
+
+/// Why the laser stopped mid-telegram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CutBy {
+    /// A power cycle.
+    Restart,
+    /// A request from the board.
+    Request,
+}
+
+/// How the telegram under way on the laser line goes to the board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Passing {
+    /// Byte by byte as it leaves the sensor, damaged by the byte faults (a scan may be cut
+    /// short).
+    Streamed,
+    /// Held until its end and garbled whole: sent at another rate than the board listens at.
+    Held,
 }
 
 /// Everything a lock-step run holds.
@@ -269,6 +322,16 @@ pub struct Engine<'c, W: World> {
     host_end: Endpoint,
     sensors: Sensors<W>,
     tap: TelegramTap,
+    /// How the telegram under way goes on.
+    passing: Passing,
+    /// When the scans whose telegrams have started and not been accounted were measured, µs.
+    scan_times_us: VecDeque<u64>,
+    /// The rate of the laser's last bytes.
+    laser_sent_baud: u32,
+    /// When the laser was polled last, µs.
+    laser_polled_us: u64,
+    /// Why the telegram being cut off stopped.
+    cut_by: CutBy,
     laser_faults: ByteFaults,
     gps_faults: ByteFaults,
     faults: FaultSpec,
@@ -310,6 +373,21 @@ impl<'c, W: World> Engine<'c, W> {
     ) -> Self {
         // On the wall clock there is nothing to wait for but the wall.
         let realtime = realtime || matches!(wiring, Wiring::Wall);
+        let mut sensors = sensors;
+        // Each scan and each epoch at the true pose of its own time.
+        if sensors.scan_truth.is_none() {
+            let trajectory = sensors.trajectory.clone();
+            sensors
+                .lms
+                .set_motion(move |t_us| trajectory.pose_at(t_us as f64 * 1e-6).sensor_pose());
+        }
+        if sensors.gps_log.is_none() {
+            let trajectory = sensors.trajectory.clone();
+            sensors
+                .gps
+                .set_trajectory(move |t_us| gps_truth(&trajectory.pose_at(t_us as f64 * 1e-6)));
+        }
+        let laser_sent_baud = sensors.lms.baud();
         Engine {
             wiring,
             laser,
@@ -317,6 +395,11 @@ impl<'c, W: World> Engine<'c, W> {
             host_end,
             sensors,
             tap: TelegramTap::new(),
+            passing: Passing::Streamed,
+            scan_times_us: VecDeque::new(),
+            laser_sent_baud,
+            laser_polled_us: 0,
+            cut_by: CutBy::Restart,
             laser_faults: ByteFaults::new(&faults, seed ^ 0x1A5E_0001),
             gps_faults: ByteFaults::new(
                 &FaultSpec {
@@ -372,12 +455,14 @@ impl<'c, W: World> Engine<'c, W> {
         [&self.laser, &self.gps_end, &self.host_end]
     }
 
-    /// Runs for `duration_us` of virtual time, then drains and asks the board for its final
-    /// status.
+    /// Runs the sensors for `duration_us` of virtual time, lets what is on the lines leave,
+    /// then drains and asks the board for its final status.
     ///
     /// # Errors
     /// When a port fails or the firmware stops reacting.
     pub fn run(&mut self, duration_us: u64) -> io::Result<()> {
+        self.sensors.lms.stop_scans_at(duration_us);
+        self.sensors.gps.stop_epochs_at(duration_us);
         let mut t_us = 0;
         let mut phase = Phase::Running;
         loop {
@@ -393,7 +478,7 @@ impl<'c, W: World> Engine<'c, W> {
                 continue;
             }
             match phase {
-                Phase::Running if t_us >= duration_us && !self.tap.in_telegram() => {
+                Phase::Running if t_us >= duration_us && self.lines_quiet() => {
                     phase = Phase::Draining {
                         until_us: t_us + DRAIN_US,
                     };
@@ -443,6 +528,7 @@ impl<'c, W: World> Engine<'c, W> {
             }
         };
         let mut last_progress = Instant::now();
+        let mut idle_checks = 0u32;
         loop {
             let moved = self.pump(t_us)?;
             let timer_due = clock.next_timer_us().is_some_and(|at| at <= t_us);
@@ -475,7 +561,13 @@ impl<'c, W: World> Engine<'c, W> {
                     ),
                 ));
             }
-            std::thread::sleep(Duration::from_micros(20));
+            // The firmware thread usually reacts at once: give it the CPU, then wait longer.
+            idle_checks += 1;
+            if idle_checks < SETTLE_YIELDS {
+                std::thread::yield_now();
+            } else {
+                std::thread::sleep(Duration::from_micros(20));
+            }
         }
     }
 
@@ -483,9 +575,15 @@ impl<'c, W: World> Engine<'c, W> {
     /// any byte moved.
     fn pump(&mut self, t_us: u64) -> io::Result<bool> {
         let commands = self.laser.read_available()?;
+        let mut cut_off = false;
         if !commands.is_empty() {
             let baud = self.laser.board_baud()?;
+            let interrupted = self.sensors.lms.counters().scans_interrupted;
             self.sensors.lms.receive(&commands, baud, t_us);
+            // A request cut a scan short: it ends where it stopped, not where its length says.
+            if self.sensors.lms.counters().scans_interrupted != interrupted {
+                cut_off = self.laser_cut_off(t_us, CutBy::Request)?;
+            }
         }
         // The GPS receiver is not configured by the board.
         let to_gps = self.gps_end.read_available()?;
@@ -506,15 +604,13 @@ impl<'c, W: World> Engine<'c, W> {
                 relayed = true;
             }
         }
-        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty() || relayed)
+        Ok(!commands.is_empty() || !to_gps.is_empty() || !frames.is_empty() || relayed || cut_off)
     }
 
     /// The fault events and the emulators' output at `t_us`. Returns whether anything was
     /// written.
     fn emit(&mut self, t_us: u64) -> io::Result<bool> {
         let t_s = t_us as f64 * 1e-6;
-        let truth = self.sensors.trajectory.pose_at(t_s);
-        self.sensors.lms.set_pose(truth.sensor_pose());
         self.start_gps_replay(t_us);
         let outage = !self.sensors.gps_has_sky || self.faults.gps_outage_at(t_s);
         if outage != self.in_outage {
@@ -533,7 +629,8 @@ impl<'c, W: World> Engine<'c, W> {
                 }
             }
             None if self.sensors.gps_log.is_some() => self.sensors.gps.set_fix(false),
-            None => self.sensors.gps.set_truth_state(gps_truth(&truth)),
+            // The trajectory function gives each epoch its truth.
+            None => {}
         }
         if let Some(until_us) = self.unplugged_until_us
             && t_us >= until_us
@@ -549,18 +646,18 @@ impl<'c, W: World> Engine<'c, W> {
             self.unplugged_until_us = Some(t_us + UNPLUGGED_US);
         }
 
-        let mut wrote = self.emit_laser(t_us, &truth)?;
+        let mut wrote = false;
         if let Some(&at_s) = self.faults.laser_restarts_s.get(self.next_restart)
             && t_s >= at_s
         {
+            // At its own time, whenever the engine looks.
+            let at_us = s_to_us(at_s).min(t_us);
             self.next_restart += 1;
             self.events.laser_restarts += 1;
-            self.sensors.lms.power_cycle(t_us);
-            if let Some(segment) = self.tap.cut() {
-                let baud = self.sensors.lms.baud();
-                wrote |= self.write_laser_segment(segment, baud, &truth)?;
-            }
+            self.sensors.lms.power_cycle(at_us);
+            wrote |= self.laser_cut_off(at_us, CutBy::Restart)?;
         }
+        wrote |= self.emit_laser(t_us)?;
         let runs = self.sensors.gps.poll_output_runs(t_us);
         for run in runs {
             self.gps_end.follow_baud(run.baud)?;
@@ -604,58 +701,125 @@ impl<'c, W: World> Engine<'c, W> {
         ));
     }
 
-    fn emit_laser(&mut self, t_us: u64, truth: &RobotState) -> io::Result<bool> {
+    /// The laser stopped sending mid-telegram at `at_us` (a power cycle, a request that cut
+    /// its scan short): hands on what left before, then ends the telegram under way. Returns
+    /// whether anything was written.
+    fn laser_cut_off(&mut self, at_us: u64, by: CutBy) -> io::Result<bool> {
+        let mut wrote = self.emit_laser(at_us)?;
+        if let Some(piece) = self.tap.cut() {
+            self.cut_by = by;
+            wrote |= self.write_laser_piece(piece, self.laser_sent_baud)?;
+        }
+        // Every scan begun has been accounted for.
+        self.scan_times_us.clear();
+        Ok(wrote)
+    }
+
+    fn emit_laser(&mut self, t_us: u64) -> io::Result<bool> {
         let mut wrote = false;
-        for run in self.sensors.lms.poll_output_runs(t_us) {
-            for segment in self.tap.push(&run.bytes) {
-                wrote |= self.write_laser_segment(segment, run.baud, truth)?;
+        let runs = self.sensors.lms.poll_output_runs(t_us);
+        self.laser_polled_us = t_us;
+        self.scan_times_us
+            .extend(self.sensors.lms.take_scans_started());
+        for run in runs {
+            self.laser_sent_baud = run.baud;
+            for piece in self.tap.push(&run.bytes) {
+                wrote |= self.write_laser_piece(piece, run.baud)?;
             }
         }
         Ok(wrote)
     }
 
-    fn write_laser_segment(
-        &mut self,
-        segment: Segment,
-        sent_baud: u32,
-        truth: &RobotState,
-    ) -> io::Result<bool> {
+    /// Writes a piece of the laser's output to the board as it hears it, damaged by the byte
+    /// faults, and accounts for the scans. Returns whether anything was written.
+    fn write_laser_piece(&mut self, piece: Piece, sent_baud: u32) -> io::Result<bool> {
         self.laser.follow_baud(sent_baud)?;
         let board_baud = self.laser.board_baud()?;
-        let bytes = match segment {
-            Segment::Other(bytes) => {
-                let heard = garble(&bytes, sent_baud, board_baud);
-                self.laser_faults.apply(&heard)
+        let bytes = match piece {
+            Piece::Other(bytes) => self
+                .laser_faults
+                .apply(&garble(&bytes, sent_baud, board_baud)),
+            Piece::Start { len, is_scan } => {
+                self.passing = if sent_baud != board_baud {
+                    Passing::Held
+                } else {
+                    if is_scan {
+                        self.laser_faults.begin_telegram(len);
+                    }
+                    Passing::Streamed
+                };
+                return Ok(false);
             }
-            Segment::Telegram {
+            Piece::Part(bytes) => match self.passing {
+                Passing::Held => return Ok(false),
+                Passing::Streamed => self
+                    .laser_faults
+                    .telegram_part(&garble(&bytes, sent_baud, board_baud)),
+            },
+            Piece::End {
                 bytes,
                 is_scan,
                 cut,
             } => {
-                if is_scan {
-                    self.sent.scan_telegrams += 1;
-                    if cut {
-                        self.sent.scan_telegrams_cut += 1;
-                    } else if let Some(values) = scan_values(&bytes) {
-                        let index = self.sent.scan_telegrams_whole as usize;
-                        self.sent.scan_telegrams_whole += 1;
-                        let truth = match &self.sensors.scan_truth {
-                            Some(table) => table.get(index).copied().unwrap_or_default(),
-                            None => *truth,
-                        };
-                        self.host.scan_sent(SentScan { values, truth });
+                let out = match self.passing {
+                    Passing::Held => {
+                        let heard = garble(&bytes, sent_baud, board_baud);
+                        if is_scan {
+                            self.laser_faults.apply_telegram(&heard)
+                        } else {
+                            self.laser_faults.apply(&heard)
+                        }
                     }
-                }
-                let heard = garble(&bytes, sent_baud, board_baud);
+                    Passing::Streamed => {
+                        self.laser_faults.end_telegram();
+                        Vec::new()
+                    }
+                };
+                self.passing = Passing::Streamed;
                 if is_scan {
-                    self.laser_faults.apply_telegram(&heard)
-                } else {
-                    self.laser_faults.apply(&heard)
+                    self.scan_sent(&bytes, cut);
                 }
+                out
+            }
+            Piece::Fragment(bytes) => {
+                // Cut before its command byte: a scan if one had started and is unaccounted.
+                if !self.scan_times_us.is_empty() {
+                    self.scan_sent(&bytes, true);
+                }
+                self.laser_faults
+                    .apply(&garble(&bytes, sent_baud, board_baud))
             }
         };
         self.laser.write(&bytes)?;
         Ok(!bytes.is_empty())
+    }
+
+    /// Accounts for a scan telegram that left the laser, whole or `cut` by a power cycle.
+    fn scan_sent(&mut self, bytes: &[u8], cut: bool) {
+        let measured_us = self
+            .scan_times_us
+            .pop_front()
+            .unwrap_or(self.laser_polled_us);
+        self.sent.scan_telegrams += 1;
+        if cut {
+            match self.cut_by {
+                CutBy::Restart => self.sent.scan_telegrams_cut += 1,
+                CutBy::Request => self.sent.scan_telegrams_interrupted += 1,
+            }
+        } else if let Some(values) = scan_values(bytes) {
+            let index = self.sent.scan_telegrams_whole as usize;
+            self.sent.scan_telegrams_whole += 1;
+            let truth = match &self.sensors.scan_truth {
+                Some(table) => table.get(index).copied().unwrap_or_default(),
+                None => self.sensors.trajectory.pose_at(measured_us as f64 * 1e-6),
+            };
+            self.host.scan_sent(SentScan { values, truth });
+        }
+    }
+
+    /// Whether the sensors have nothing more on their lines.
+    fn lines_quiet(&self) -> bool {
+        !self.sensors.lms.is_transmitting() && self.sensors.gps.next_output_us().is_none()
     }
 
     /// Pings. Returns whether anything was written.
@@ -686,7 +850,6 @@ impl<'c, W: World> Engine<'c, W> {
             for at in emulators.into_iter().flatten() {
                 next = next.min(at.max(t_us + QUANTUM_US));
             }
-            let s_to_us = |s: f64| (s * 1e6).ceil() as u64;
             let scheduled = [
                 Some(self.next_ping_us),
                 self.faults
@@ -714,6 +877,11 @@ impl<'c, W: World> Engine<'c, W> {
         }
         next.max(t_us + 1)
     }
+}
+
+/// Seconds to µs, rounded up: an event set for `s` happens at the first µs at or after it.
+fn s_to_us(s: f64) -> u64 {
+    (s * 1e6).ceil() as u64
 }
 
 /// The GPS antenna at the robot's origin.

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use host::link::{LinkReader, TimeSync};
-use protocol::{Encoder, MAX_WIRE_LEN, Message, ScanMsg, StatusMsg};
+use protocol::{Encoder, GpsFixMsg, MAX_WIRE_LEN, Message, ScanMsg, StatusMsg};
 
 use super::estimator::Estimator;
 use crate::world::RobotState;
@@ -30,6 +30,15 @@ pub struct ScanRecord {
     pub truth: RobotState,
 }
 
+/// A scan as the host decoded it, without the board's time stamp.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DecodedScan {
+    /// The board's count of valid scans.
+    pub scan_counter: u32,
+    /// The range words.
+    pub values: Vec<u16>,
+}
+
 /// What the host has seen so far.
 pub struct HostSide {
     reader: LinkReader,
@@ -40,6 +49,10 @@ pub struct HostSide {
     sent: VecDeque<SentScan>,
     /// Every scan received intact, in order.
     pub records: Vec<ScanRecord>,
+    /// Every scan received, in order.
+    pub scans: Vec<DecodedScan>,
+    /// Every GPS fix message received, in order, with its board time stamp set to 0.
+    pub fixes: Vec<GpsFixMsg>,
     /// Scans received that match nothing the sensor sent.
     pub scans_not_sent: u64,
     /// Gaps in the board's scan counter: scans the board accepted that did not arrive.
@@ -73,6 +86,8 @@ impl HostSide {
             estimator,
             sent: VecDeque::new(),
             records: Vec::new(),
+            scans: Vec::new(),
+            fixes: Vec::new(),
             scans_not_sent: 0,
             scan_counter_gaps: 0,
             last_scan_counter: 0,
@@ -101,6 +116,7 @@ impl HostSide {
                         self.last_fix_time = fix.time;
                     }
                     self.estimator.on_fix(&fix);
+                    self.fixes.push(GpsFixMsg { stamp_us: 0, ..fix });
                 }
                 Message::Status(status) => self.status = Some(status),
                 _ => {}
@@ -139,6 +155,10 @@ impl HostSide {
     }
 
     fn on_scan(&mut self, scan: &ScanMsg) {
+        self.scans.push(DecodedScan {
+            scan_counter: scan.scan_counter,
+            values: scan.values.to_vec(),
+        });
         let expected = self.last_scan_counter.wrapping_add(1);
         self.scan_counter_gaps += u64::from(scan.scan_counter.wrapping_sub(expected));
         self.last_scan_counter = scan.scan_counter;

@@ -9,14 +9,17 @@
 //! * `trajectory.tsv`: the host's estimate per scan received intact, `timestamp_s x_m y_m
 //!   theta_rad`, in the `map` frame (origin: the robot's pose at its first scan);
 //! * `ground_truth.tsv`: the true pose at the same scans, in the same frame;
+//! * `scans.tsv`: every scan the host decoded, `scan_counter` then the range words;
+//! * `fixes.jsonl`: every GPS fix message the host decoded, one JSON object a line, without
+//!   the board's time stamp (`stamp_us` is 0);
 //! * `summary.json`: the accounting ([`RunSummary`]);
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host
-//! or counted as rejected by the system itself — by the firmware (scan periods with bytes but
-//! no valid telegram, [`firmware::sick::ScanSlots`]) or by the host (gaps in the board's scan
-//! counter: dropped on the board or lost on the link). `accounting_balanced` says whether
-//! `delivered intact + counted rejected = emitted`.
+//! or counted as rejected by the system itself — by the firmware (scan periods between valid
+//! telegrams, or with bytes but no valid telegram, [`firmware::sick::ScanSlots`]) or by the
+//! host (gaps in the board's scan counter: dropped on the board or lost on the link).
+//! `accounting_balanced` says whether `delivered intact + counted rejected = emitted`.
 
 pub mod engine;
 pub mod estimator;
@@ -44,10 +47,10 @@ use crate::replay::{
 };
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
-pub use engine::Line;
 use engine::{Endpoint, Engine, Sensors, Wiring};
+pub use engine::{Line, ReportedBaud};
 use estimator::Estimator;
-use host_side::{HostSide, ScanRecord};
+use host_side::{DecodedScan, HostSide, ScanRecord};
 pub use summary::RunSummary;
 
 /// What to run.
@@ -206,8 +209,8 @@ fn run_chain(
         bring_up,
         pixel_m: if outdoor { 0.1 } else { 0.05 },
     };
-    let (summary, records) = execute(chain, options, options.duration_s, lines, relay)?;
-    write_outputs(&options.out, &records, &summary)?;
+    let (summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
+    write_outputs(&options.out, &received, &summary)?;
     scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(
         options.out.join("landmarks.tsv"),
     )?))?;
@@ -428,9 +431,10 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
         realtime: options.realtime,
         hardware: options.hardware.clone(),
     };
-    let (mut summary, records) = execute(chain, &run_options, run_options.duration_s, lines, None)?;
+    let (mut summary, received) =
+        execute(chain, &run_options, run_options.duration_s, lines, None)?;
     summary.world = format!("replay of {}", options.source);
-    write_outputs(&options.out, &records, &summary)?;
+    write_outputs(&options.out, &received, &summary)?;
     Ok(summary)
 }
 
@@ -466,7 +470,7 @@ fn execute(
     duration_s: f64,
     lines: Option<WallLines>,
     relay: Option<PtyLink>,
-) -> io::Result<(RunSummary, Vec<ScanRecord>)> {
+) -> io::Result<(RunSummary, Received)> {
     let mut gps_options = GpsEmulatorOptions {
         seed: options.seed ^ 0x6750,
         datum: chain.datum,
@@ -507,7 +511,7 @@ fn execute(
         );
         engine.run(duration_us)?;
         let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
-        return Ok((summary, std::mem::take(&mut engine.host.records)));
+        return Ok((summary, Received::take(&mut engine.host)));
     }
 
     let clock = VirtualClock::begin();
@@ -546,7 +550,7 @@ fn execute(
     board.stop();
     outcome?;
     let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
-    Ok((summary, std::mem::take(&mut engine.host.records)))
+    Ok((summary, Received::take(&mut engine.host)))
 }
 
 /// GPS epochs per second that fit a line at `baud` (an epoch of five sentences is about
@@ -555,7 +559,25 @@ fn gps_rate_for(baud: u32) -> u32 {
     (baud / 4_000).clamp(1, 10)
 }
 
-fn write_outputs(out: &Path, records: &[ScanRecord], summary: &RunSummary) -> io::Result<()> {
+/// What the host received, for the outputs.
+struct Received {
+    records: Vec<ScanRecord>,
+    scans: Vec<DecodedScan>,
+    fixes: Vec<protocol::GpsFixMsg>,
+}
+
+impl Received {
+    fn take(host: &mut HostSide) -> Received {
+        Received {
+            records: std::mem::take(&mut host.records),
+            scans: std::mem::take(&mut host.scans),
+            fixes: std::mem::take(&mut host.fixes),
+        }
+    }
+}
+
+fn write_outputs(out: &Path, received: &Received, summary: &RunSummary) -> io::Result<()> {
+    let records = &received.records;
     let origin = records.first().map(|r| r.truth);
     let mut trajectory = BufWriter::new(fs::File::create(out.join("trajectory.tsv"))?);
     let mut truth = BufWriter::new(fs::File::create(out.join("ground_truth.tsv"))?);
@@ -575,6 +597,22 @@ fn write_outputs(out: &Path, records: &[ScanRecord], summary: &RunSummary) -> io
     }
     trajectory.flush()?;
     truth.flush()?;
+    let mut scans = BufWriter::new(fs::File::create(out.join("scans.tsv"))?);
+    writeln!(scans, "# scan_counter range words")?;
+    for scan in &received.scans {
+        write!(scans, "{}", scan.scan_counter)?;
+        for value in &scan.values {
+            write!(scans, " {value}")?;
+        }
+        writeln!(scans)?;
+    }
+    scans.flush()?;
+    let mut fixes = BufWriter::new(fs::File::create(out.join("fixes.jsonl"))?);
+    for fix in &received.fixes {
+        serde_json::to_writer(&mut fixes, fix).map_err(io::Error::other)?;
+        writeln!(fixes)?;
+    }
+    fixes.flush()?;
     let json = serde_json::to_string_pretty(summary).map_err(io::Error::other)?;
     fs::write(out.join("summary.json"), json + "\n")
 }

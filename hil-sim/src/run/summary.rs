@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::RunOptions;
 use super::engine::{Engine, EventsInjected};
+use crate::emulators::StreamStart;
 use crate::faults::InjectedFaults;
 use crate::world::robot_state::wrap_angle_rad;
 use crate::world::{RobotState, World};
@@ -42,6 +43,8 @@ pub struct RunSummary {
     pub counted: Counted,
     /// The host's estimate against the truth.
     pub estimate: EstimateError,
+    /// Each stream of scans the laser began: when, and when its first scan went out.
+    pub laser_streams: Vec<StreamStart>,
     /// Wall-clock seconds the run took; not written, as everything written is deterministic.
     #[serde(skip)]
     pub wall_s: f64,
@@ -56,6 +59,9 @@ pub struct Injected {
     pub gps: InjectedFaults,
     /// Scan telegrams cut short by a power cycle.
     pub scan_telegrams_cut_by_restart: u64,
+    /// Scan telegrams the laser cut short because the board sent a request (not a fault:
+    /// the sensor's own behaviour, §5).
+    pub scan_telegrams_interrupted: u64,
     /// Events.
     pub events: EventsInjected,
 }
@@ -63,7 +69,8 @@ pub struct Injected {
 /// What the system counted.
 #[derive(Debug, Clone, Serialize)]
 pub struct Counted {
-    /// Firmware: scan periods with bytes but no valid scan.
+    /// Firmware: scans missed (scan periods between valid scans, or with bytes but no valid
+    /// scan).
     pub firmware_scans_missed: u32,
     /// Firmware: laser telegrams whose CRC failed.
     pub firmware_laser_crc_errors: u32,
@@ -151,6 +158,7 @@ impl RunSummary {
                 laser: laser_injected,
                 gps: gps_injected,
                 scan_telegrams_cut_by_restart: engine.sent.scan_telegrams_cut,
+                scan_telegrams_interrupted: engine.sent.scan_telegrams_interrupted,
                 events: engine.events,
             },
             counted: Counted {
@@ -173,6 +181,7 @@ impl RunSummary {
                 final_status_received: status.is_some(),
             },
             estimate: estimate_error(&host.records),
+            laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
         }
     }

@@ -18,7 +18,8 @@
 //! Cost: bytes inside a telegram body are only stored; the checksum is computed once, when
 //! the last byte arrives. Re-examination happens only after an error. No allocation.
 //!
-//! Time stamps: an event carries the arrival time of its first byte. For body bytes the
+//! Time stamps: an event carries the arrival time of its first byte, and a telegram also that
+//! of its last byte. For body bytes the
 //! receiver does not record times as they arrive; should such a byte later start a telegram
 //! found by re-examination, its time is interpolated between the exact times around it
 //! (exact when the bytes came at a constant rate, as they do within a sensor transmission).
@@ -53,6 +54,8 @@ pub enum Event<'a> {
         telegram: Telegram<&'a [u8]>,
         /// Arrival time of the telegram's first byte (STX), µs.
         stamp_us: u64,
+        /// Arrival time of the telegram's last byte, µs.
+        end_us: u64,
     },
     /// The unframed acknowledge byte `06h`.
     Ack {
@@ -505,6 +508,12 @@ impl Receiver {
             Found::Telegram { start, len } => Event::Telegram {
                 telegram: Telegram::new_unchecked(&self.buf[start..start + len]),
                 stamp_us: self.stamp_us(start),
+                // The last byte pushed has no stamp stored when the fast path took it.
+                end_us: if start + len == self.end {
+                    self.last_us
+                } else {
+                    self.stamp_us(start + len - 1)
+                },
             },
             Found::Ack(at) => Event::Ack {
                 stamp_us: self.stamp_us(at),
@@ -538,6 +547,47 @@ mod tests {
         assert_eq!(got, 1);
         assert_eq!(rx.stats().timeouts, 0);
     }
+
+    #[test]
+    fn a_telegram_carries_the_stamps_of_its_first_and_last_bytes() {
+        let telegram = [0x02, 0x80, 0x03, 0x00, 0xA0, 0x00, 0x10, 0x16, 0x0A];
+        // Received as sent: the last byte is the one that completes it.
+        let mut rx = Receiver::new();
+        let mut ends = Vec::new();
+        for (i, &b) in telegram.iter().enumerate() {
+            if let Some(Event::Telegram {
+                stamp_us, end_us, ..
+            }) = rx.push(b, 1_000 + 10 * i as u64)
+            {
+                ends.push((stamp_us, end_us));
+            }
+        }
+        assert_eq!(ends, [(1_000, 1_080)]);
+        // Behind a false start whose length swallows it: found when the false candidate
+        // fails, after more bytes came; its last byte is still its own.
+        let mut rx = Receiver::new();
+        let mut stream = vec![0x02, 0x80, 0x0A, 0x00];
+        stream.extend_from_slice(&telegram);
+        stream.extend_from_slice(&[0x00; 3]);
+        let mut ends = Vec::new();
+        for (i, &b) in stream.iter().enumerate() {
+            if let Some(Event::Telegram {
+                stamp_us, end_us, ..
+            }) = rx.push(b, 2_000 + 10 * i as u64)
+            {
+                ends.push((stamp_us, end_us));
+            }
+        }
+        while let Some(event) = rx.poll(2_000 + 10 * stream.len() as u64) {
+            if let Event::Telegram {
+                stamp_us, end_us, ..
+            } = event
+            {
+                ends.push((stamp_us, end_us));
+            }
+        }
+        assert_eq!(ends, [(2_040, 2_120)]);
+    }
     use crate::sick::test_data::{hex, real_b0};
     use proptest::prelude::*;
 
@@ -551,9 +601,9 @@ mod tests {
 
     fn own(event: Event<'_>) -> Seen {
         match event {
-            Event::Telegram { telegram, stamp_us } => {
-                Seen::Telegram(telegram.as_bytes().to_vec(), stamp_us)
-            }
+            Event::Telegram {
+                telegram, stamp_us, ..
+            } => Seen::Telegram(telegram.as_bytes().to_vec(), stamp_us),
             Event::Ack { stamp_us } => Seen::Ack(stamp_us),
             Event::Nak { stamp_us } => Seen::Nak(stamp_us),
         }

@@ -3,24 +3,47 @@
 //! While streaming, the sensor sends one `B0h` telegram per scan period `P` (13.3 ms at 1°,
 //! 26.7 ms at 0.5°, 53.3 ms at 0.25°; every `m`-th period when a telegram takes longer than
 //! `m − 1` periods on the line). A telegram occupies its *slot*: it starts at a multiple of
-//! the period and lasts its air time `A < P`. A telegram damaged on the way (bit errors,
-//! lost or cut bytes) is not accepted, but its remaining bytes still arrive in its slot. So
-//! the receiver can count what it missed without any help from the sensor: every slot in
-//! which bytes arrived but no telegram was accepted held a lost scan.
+//! the period and lasts its air time `A < P`. So the receiver can count what it missed
+//! without any help from the sensor:
 //!
-//! Slots are numbered from an anchor: the first byte of the last accepted telegram, or, before
-//! the first one of a streaming session, the first byte after streaming started. A byte at
-//! `t` lies in slot `⌊(t − anchor + (P − A)/2) / P⌋`, so slot boundaries fall in the middle of
-//! the quiet gap between telegrams and stamp jitter below `(P − A)/2` changes nothing. Each
-//! slot that receives bytes counts once; each slot holds one telegram at most, so the scans
-//! missed are the slots with bytes less the telegrams accepted.
+//! * **Between two accepted telegrams** the sensor sent one telegram per period: the scans
+//!   missed are the whole periods between their starts, less one. This counts telegrams
+//!   damaged on the way (bit errors, lost or cut bytes) and telegrams lost whole alike.
+//! * **After the last accepted telegram** (and before the first one of a session) only the
+//!   bytes tell: every slot in which bytes arrived held a telegram, which was not accepted.
+//!   These slots count as missed until a telegram is accepted and its distance counts them
+//!   exactly, or the session ends.
+//!
+//! Times come from the receiver's stamps. A byte's stamp is never earlier than its arrival,
+//! but it can be later: bytes read in one burst well after they arrived (a reader that fell
+//! behind, a whole telegram delivered at once) are stamped back from the read by one
+//! character time each, which reaches back only over that read; the first byte of a 732-byte
+//! telegram read in 256-byte reads is stamped up to two thirds of its air time late. A
+//! telegram's start is therefore taken from its last byte, less the air time of the bytes
+//! before it: the line is quiet after a telegram, so its last byte is read as it arrives.
+//! (The first byte's stamp is no better when read on time, and after a resynchronisation the
+//! receiver interpolates it, possibly too early.) Starts are placed on a grid of period `P`
+//! anchored at an accepted telegram's start, at the nearest grid point: a start read up to
+//! `P/2` late still lands in its own slot (107 ms at 38 400 Bd, 13 ms at 500 kBd). A start
+//! read later lands in the next one; the next telegram's start, at or before it, shows that,
+//! and the count is corrected. The anchor moves along with each telegram whose start lies
+//! within `(P − A)/4` of the grid, following the sensor's clock, which drifts from the board's.
+//!
+//! Bytes are placed in slots whose boundaries fall `(P − A)/2` before the grid points, in the
+//! middle of the quiet gap between telegrams. Before the first accepted telegram of a session
+//! the grid is anchored at the first byte heard; the first accepted telegram's distance from
+//! it counts the ones before it, exactly while the two are read late by amounts less than
+//! `P/2` apart.
 //!
 //! After a silence of [`BREAK_US`] the stream is broken: a power-cycled sensor says hello at
-//! another baud rate (`90h` at 9 600 Bd reads as noise at 500 kBd). Slots counted after a
-//! break become certain only when another telegram is accepted; when the session ends first
-//! ([`ScanSlots::end`], the stream watchdog), they are discarded. A telegram whose every byte
-//! was lost, and a damaged last telegram before a break that never resumes, cannot be told
-//! from silence; they are the limits of this count.
+//! another baud rate (`90h` at 9 600 Bd reads as noise at 500 kBd). The grid is anchored anew
+//! at the first byte after the break, and slots counted after it become certain only when
+//! another telegram is accepted, counting as missed only then; when the session ends first
+//! ([`ScanSlots::end`], the stream watchdog), they are discarded.
+//!
+//! The limits of this count: a telegram lost whole after the last accepted one (or before
+//! the first) cannot be told from silence, and the last bytes of a damaged telegram there
+//! read more than `(P − A)/2` late count the slot after it too.
 
 /// A silence after which bytes are not taken for the stream's telegrams until one is
 /// accepted, µs.
@@ -41,28 +64,34 @@ const BITS_PER_BYTE: u64 = 10;
 pub struct ScanSlots {
     /// The current session's timing, `None` when not streaming.
     timing: Option<Timing>,
-    /// Slot 0 of the grid: the first byte of a telegram, ns.
+    /// Slot 0 of the grid, ns: an accepted telegram's start, or the first byte heard.
     anchor_ns: Option<u64>,
-    /// The highest slot with bytes since the anchor.
+    /// The slot of the last accepted telegram on the grid; `None` while the grid is anchored
+    /// at the first byte heard.
+    scan_slot: Option<u64>,
+    /// When the last accepted telegram's start lay off the grid (read late): the slot of the
+    /// one accepted before it, below which it cannot be moved back.
+    scan_slot_floor: Option<u64>,
+    /// The highest slot with bytes.
     last_slot: u64,
     /// The last byte's stamp, ns.
     last_byte_ns: u64,
-    /// Slots with bytes since the last break, while the stream is broken.
+    /// Slots with bytes past the last accepted telegram's (or since the grid was anchored).
+    pending: u32,
+    /// Of those, heard after a break.
     after_break: u32,
     /// Whether a break happened since the last accepted telegram.
     broken: bool,
-    /// Whether a telegram was accepted in the last slot counted.
-    slot_taken: bool,
-    /// Slots that received bytes, since boot.
-    active: u32,
-    /// Telegrams accepted while counting, since boot.
-    accepted: u32,
+    /// Scans counted as missed, since boot.
+    missed: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
 struct Timing {
     period_ns: u64,
     airtime_ns: u64,
+    /// One character on the line, ns.
+    char_ns: u64,
 }
 
 impl Timing {
@@ -71,9 +100,14 @@ impl Timing {
         self.period_ns.saturating_sub(self.airtime_ns) / 2
     }
 
-    /// The slot of `t_ns` on the grid anchored at `anchor_ns`.
+    /// The slot a byte at `t_ns` lies in, on the grid anchored at `anchor_ns`.
     fn slot(&self, anchor_ns: u64, t_ns: u64) -> u64 {
         (t_ns.saturating_sub(anchor_ns) + self.lead_ns()) / self.period_ns
+    }
+
+    /// The grid point nearest to `t_ns`.
+    fn nearest(&self, anchor_ns: u64, t_ns: u64) -> u64 {
+        (t_ns.saturating_sub(anchor_ns) + self.period_ns / 2) / self.period_ns
     }
 }
 
@@ -83,13 +117,14 @@ impl ScanSlots {
         ScanSlots {
             timing: None,
             anchor_ns: None,
+            scan_slot: None,
+            scan_slot_floor: None,
             last_slot: 0,
             last_byte_ns: 0,
+            pending: 0,
             after_break: 0,
             broken: false,
-            slot_taken: false,
-            active: 0,
-            accepted: 0,
+            missed: 0,
         }
     }
 
@@ -103,26 +138,33 @@ impl ScanSlots {
         };
         let scan_ns = ROTATION_NS * rotations;
         let bytes = SCAN_FRAMING_BYTES + 2 * u64::from(values_per_scan);
-        let airtime_ns = bytes * BITS_PER_BYTE * 1_000_000_000 / u64::from(baud.max(1));
+        let char_ns = BITS_PER_BYTE * 1_000_000_000 / u64::from(baud.max(1));
+        let airtime_ns = bytes * char_ns;
         // The sensor skips the scans that end while the line is still busy.
         let period_ns = scan_ns * airtime_ns.div_ceil(scan_ns).max(1);
         self.end();
         self.timing = Some(Timing {
             period_ns,
             airtime_ns,
+            char_ns,
         });
     }
 
     /// The session ends (streaming stopped, or the watchdog gave up on the stream). Slots
-    /// counted after a break are discarded.
+    /// with bytes after the last accepted telegram count as missed, but those heard after a
+    /// break, which are discarded.
     pub fn end(&mut self) {
-        self.active = self.active.wrapping_sub(self.after_break);
+        self.missed = self
+            .missed
+            .wrapping_add(self.pending.wrapping_sub(self.after_break));
         self.timing = None;
         self.anchor_ns = None;
+        self.scan_slot = None;
+        self.scan_slot_floor = None;
         self.last_slot = 0;
+        self.pending = 0;
         self.after_break = 0;
         self.broken = false;
-        self.slot_taken = false;
     }
 
     /// A byte arrived at `stamp_us`. Feed every byte, before the receiver sees it.
@@ -132,12 +174,20 @@ impl ScanSlots {
         let silence_ns = t_ns.saturating_sub(self.last_byte_ns);
         self.last_byte_ns = t_ns;
         if self.anchor_ns.is_some() && silence_ns > BREAK_US * 1_000 {
-            // What follows may be noise from a restarting sensor: counted apart.
+            // What follows may be noise from a restarting sensor: counted apart, on a grid of
+            // its own.
+            self.missed = self
+                .missed
+                .wrapping_add(self.pending.wrapping_sub(self.after_break));
+            self.pending = 0;
+            self.after_break = 0;
             self.broken = true;
             self.anchor_ns = None;
         }
         let Some(anchor_ns) = self.anchor_ns else {
             self.anchor_ns = Some(t_ns);
+            self.scan_slot = None;
+            self.scan_slot_floor = None;
             self.last_slot = 0;
             self.count_slot();
             return;
@@ -149,47 +199,83 @@ impl ScanSlots {
         }
     }
 
-    /// A scan telegram whose first byte arrived at `first_byte_us` was accepted.
+    /// A scan telegram whose last byte arrived at `last_byte_us` was accepted. Call it once
+    /// that byte has been fed to [`Self::on_byte`].
     ///
-    /// Its bytes have already counted its slot, unless another accepted telegram took that
-    /// slot (bytes read late in one burst with the next telegram's carry the same stamps):
-    /// each telegram has a slot of its own, so it counts one then. Its start moves the grid
-    /// along (the sensor's clock and the board's drift apart), unless the stamp lies far from
-    /// the grid: a stamp interpolated by the receiver after a resynchronisation is not
-    /// trusted for that.
-    pub fn on_scan(&mut self, first_byte_us: u64) {
+    /// Counts the scans missed since the telegram accepted before it (or, the first of a
+    /// grid, since the first byte heard) from the distance between their starts; see the
+    /// [module documentation](self).
+    pub fn on_scan(&mut self, last_byte_us: u64) {
         let Some(timing) = self.timing else { return };
-        if self.slot_taken {
-            self.count_slot();
-        }
-        self.slot_taken = true;
-        self.accepted = self.accepted.wrapping_add(1);
+        let start_ns = last_byte_us
+            .saturating_mul(1_000)
+            .saturating_sub(timing.airtime_ns.saturating_sub(timing.char_ns));
+        // The bytes heard since the last accepted telegram are counted by distance instead
+        // (and are certain now, after a break too).
+        self.pending = 0;
         self.after_break = 0;
         self.broken = false;
-        let t_ns = first_byte_us.saturating_mul(1_000);
-        let Some(anchor_ns) = self.anchor_ns else {
-            self.anchor_ns = Some(t_ns);
-            self.last_slot = 0;
+        let (Some(anchor_ns), Some(previous)) = (self.anchor_ns, self.scan_slot) else {
+            // The first accepted telegram of the grid, which is anchored at the first byte
+            // heard: normally the first byte of a telegram. The telegrams from that one to
+            // this one's predecessor were missed.
+            if let Some(anchor_ns) = self.anchor_ns {
+                self.count_missed(timing.nearest(anchor_ns, start_ns));
+            }
+            self.set_anchor(start_ns);
             return;
         };
-        let slot = timing.slot(anchor_ns, t_ns);
-        let on_grid_ns = anchor_ns + slot * timing.period_ns;
-        if t_ns.abs_diff(on_grid_ns) <= timing.lead_ns() / 2 {
-            self.anchor_ns = Some(t_ns);
-            self.last_slot = self.last_slot.saturating_sub(slot);
+        let nearest = timing.nearest(anchor_ns, start_ns);
+        let (previous, slot) = if nearest > previous {
+            (previous, nearest)
+        } else {
+            // At or before the one accepted last, which was read late: that one lies at most
+            // just before this one, and after the one accepted before it.
+            let floor = self.scan_slot_floor.map_or(previous, |floor| floor + 1);
+            let corrected = nearest
+                .saturating_sub(1)
+                .clamp(floor.min(previous), previous);
+            self.missed = self
+                .missed
+                .wrapping_sub(u32::try_from(previous - corrected).unwrap_or(u32::MAX));
+            (corrected, nearest.max(corrected + 1))
+        };
+        self.count_missed(slot - previous - 1);
+        let on_grid_ns = anchor_ns + nearest * timing.period_ns;
+        if start_ns.abs_diff(on_grid_ns) <= timing.lead_ns() / 2 {
+            self.set_anchor(start_ns);
+        } else {
+            self.scan_slot_floor = Some(previous);
+            self.scan_slot = Some(slot);
+            self.last_slot = slot;
         }
     }
 
-    /// Scans known to have been sent but not accepted, since boot (wraps at 2³²): slots that
-    /// received bytes, less accepted telegrams. Includes slots counted after a break, which
-    /// [`Self::end`] may still take back.
+    /// Scans known to have been sent but not accepted, since boot (wraps at 2³²): counted by
+    /// distance between accepted telegrams, plus the slots with bytes after the last one
+    /// (which its successor's distance may still correct), but those heard after a break
+    /// until a telegram accepted after them confirms them.
     pub fn missed(&self) -> u32 {
-        self.active.wrapping_sub(self.accepted)
+        self.missed
+            .wrapping_add(self.pending.wrapping_sub(self.after_break))
+    }
+
+    /// Anchors the grid at the start of an accepted telegram.
+    fn set_anchor(&mut self, start_ns: u64) {
+        self.anchor_ns = Some(start_ns);
+        self.scan_slot = Some(0);
+        self.scan_slot_floor = None;
+        self.last_slot = 0;
+    }
+
+    fn count_missed(&mut self, scans: u64) {
+        self.missed = self
+            .missed
+            .wrapping_add(u32::try_from(scans).unwrap_or(u32::MAX));
     }
 
     fn count_slot(&mut self) {
-        self.slot_taken = false;
-        self.active = self.active.wrapping_add(1);
+        self.pending = self.pending.wrapping_add(1);
         if self.broken {
             self.after_break += 1;
         }
@@ -209,34 +295,65 @@ mod tests {
 
     const PERIOD_US: u64 = 26_667;
     const AIRTIME_US: u64 = 14_640;
+    /// 38 400 Bd: a 0.5° telegram takes 190.6 ms on the line, one goes out every 213.3 ms.
+    const SLOW_PERIOD_US: u64 = 213_333;
+    const SLOW_AIRTIME_US: u64 = 190_625;
+    /// One character at 38 400 Bd and at 500 kBd, as the laser task rounds it, µs.
+    const SLOW_CHAR_US: u64 = 260;
+    const CHAR_US: u64 = 20;
 
-    /// The bytes of a telegram starting at `start_us`, `fraction` of it arriving.
-    fn bytes(slots: &mut ScanSlots, start_us: u64, fraction: f64) {
+    /// The bytes of a 500 kBd telegram starting at `start_us`, `fraction` of it arriving on
+    /// time; returns the last one's stamp.
+    fn bytes(slots: &mut ScanSlots, start_us: u64, fraction: f64) -> u64 {
         let n = (732.0 * fraction) as u64;
+        let mut last_us = start_us;
         for i in 0..n {
-            slots.on_byte(start_us + i * AIRTIME_US / 732);
+            last_us = start_us + i * AIRTIME_US / 732;
+            slots.on_byte(last_us);
         }
+        last_us
     }
 
+    /// An intact 500 kBd telegram starting at `start_us`, on time.
     fn telegram(slots: &mut ScanSlots, start_us: u64) {
-        bytes(slots, start_us, 1.0);
-        slots.on_scan(start_us);
+        let last_us = bytes(slots, start_us, 1.0);
+        slots.on_scan(last_us);
     }
 
-    #[test]
-    fn telegrams_read_in_one_burst_keep_a_slot_each() {
-        let mut slots = streaming();
-        telegram(&mut slots, 5_000);
-        // The next two telegrams are read late, together, with one stamp.
-        let late_us = 5_000 + 3 * PERIOD_US;
-        for _ in 0..2 {
-            for _ in 0..732 {
-                slots.on_byte(late_us);
+    /// Feeds the first `count` of the 732 bytes of a telegram, read in one burst at
+    /// `read_us`, 256 bytes per read and stamped as the laser task stamps them: back from the
+    /// read by one character time per byte, never before the previous stamp. Returns the
+    /// last one's stamp, `read_us`.
+    fn read_in_one_burst(slots: &mut ScanSlots, read_us: u64, count: u64, char_us: u64) -> u64 {
+        let mut last_us = 0;
+        let mut left = count;
+        while left > 0 {
+            let chunk = left.min(256);
+            for i in 0..chunk {
+                last_us = (read_us - (chunk - 1 - i) * char_us).max(last_us);
+                slots.on_byte(last_us);
             }
-            slots.on_scan(late_us);
+            left -= chunk;
         }
-        telegram(&mut slots, 5_000 + 4 * PERIOD_US);
-        assert_eq!(slots.missed(), 0);
+        last_us
+    }
+
+    /// Feeds a 38 400 Bd telegram starting at `start_us` whose last `late` bytes are read
+    /// `late_us` late, all at once; returns the last one's stamp.
+    fn held_up_telegram(slots: &mut ScanSlots, start_us: u64, late: u64, late_us: u64) -> u64 {
+        let mut last_us = 0;
+        for i in 0..732 {
+            let on_time_us = start_us + (i + 1) * SLOW_AIRTIME_US / 732;
+            let late_read_us = start_us + SLOW_AIRTIME_US + late_us;
+            last_us = if i + late >= 732 {
+                late_read_us - (731 - i) * SLOW_CHAR_US
+            } else {
+                on_time_us
+            }
+            .max(last_us);
+            slots.on_byte(last_us);
+        }
+        last_us
     }
 
     #[test]
@@ -257,6 +374,7 @@ mod tests {
         for i in 100..732 {
             slots.on_byte(5_000 + 2 * PERIOD_US + i * AIRTIME_US / 732);
         }
+        assert_eq!(slots.missed(), 2);
         telegram(&mut slots, 5_000 + 3 * PERIOD_US);
         assert_eq!(slots.missed(), 2);
         // A damaged first telegram of a session counts too.
@@ -264,6 +382,15 @@ mod tests {
         bytes(&mut slots, 1_000, 0.9);
         telegram(&mut slots, 1_000 + PERIOD_US);
         assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn telegrams_lost_whole_between_accepted_ones_count() {
+        let mut slots = streaming();
+        telegram(&mut slots, 0);
+        // Nothing of the next two arrives.
+        telegram(&mut slots, 3 * PERIOD_US);
+        assert_eq!(slots.missed(), 2);
     }
 
     #[test]
@@ -280,18 +407,21 @@ mod tests {
     fn noise_after_a_break_is_dropped_when_the_session_ends() {
         let mut slots = streaming();
         telegram(&mut slots, 0);
-        // The sensor restarts: 0.7 s of silence, then its hello at the wrong rate.
+        // The sensor restarts: 0.7 s of silence, then its hello at the wrong rate: two
+        // slots with bytes, not counted while uncertain.
         for i in 0..29 {
             slots.on_byte(700_000 + i * 1_042);
         }
-        assert_eq!(slots.missed(), 2);
+        assert_eq!(slots.missed(), 0);
         slots.end();
         assert_eq!(slots.missed(), 0);
         // After a break, a resumed stream confirms what was counted.
         let mut slots = streaming();
         telegram(&mut slots, 0);
         bytes(&mut slots, 600_000, 0.5);
+        assert_eq!(slots.missed(), 0);
         telegram(&mut slots, 600_000 + PERIOD_US);
+        assert_eq!(slots.missed(), 1);
         slots.end();
         assert_eq!(slots.missed(), 1);
     }
@@ -299,9 +429,91 @@ mod tests {
     #[test]
     fn not_counting_outside_a_session() {
         let mut slots = ScanSlots::new();
-        bytes(&mut slots, 0, 1.0);
-        slots.on_scan(0);
+        bytes(&mut slots, 0, 0.5);
+        let last_us = bytes(&mut slots, PERIOD_US, 1.0);
+        slots.on_scan(last_us);
         assert_eq!(slots.missed(), 0);
+    }
+
+    #[test]
+    fn telegrams_read_in_one_burst_keep_a_slot_each() {
+        let mut slots = streaming();
+        telegram(&mut slots, 5_000);
+        // The next two are read together 10 ms after the second's end, with one stamp.
+        let late_us = 5_000 + 2 * PERIOD_US + AIRTIME_US + 10_000;
+        for _ in 0..2 {
+            for _ in 0..732 {
+                slots.on_byte(late_us);
+            }
+            slots.on_scan(late_us);
+        }
+        telegram(&mut slots, 5_000 + 3 * PERIOD_US);
+        assert_eq!(slots.missed(), 0);
+    }
+
+    #[test]
+    fn a_telegram_cut_after_one_read_in_a_burst_is_counted() {
+        // The first byte of a telegram read in one burst is stamped 124 ms late; the bytes
+        // of the next one, which a power cycle cuts off after 20 ms and which are read as
+        // they come, must not fall into its slot.
+        let mut slots = ScanSlots::new();
+        slots.start(361, 50, 38_400);
+        for k in 0..3 {
+            let read_us = k * SLOW_PERIOD_US + SLOW_AIRTIME_US;
+            let last_us = read_in_one_burst(&mut slots, read_us, 732, SLOW_CHAR_US);
+            slots.on_scan(last_us);
+        }
+        let cut_us = 3 * SLOW_PERIOD_US;
+        for i in 1..=76 {
+            slots.on_byte(cut_us + i * SLOW_CHAR_US);
+        }
+        assert_eq!(slots.missed(), 1);
+        // 0.7 s later the restarting sensor's hello, at another rate: noise, then the
+        // watchdog ends the session.
+        for i in 0..29 {
+            slots.on_byte(cut_us + 720_000 + i * 1_042);
+        }
+        slots.end();
+        assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn telegrams_read_in_bursts_are_counted_once_each() {
+        // Intact and damaged telegrams alike, every one read in one burst at its end, its
+        // first byte up to two thirds of its air time late. At 500 kBd the first of the
+        // session is damaged: its late first byte is the first byte heard. (At 38 400 Bd it
+        // is 124 ms late, more than half a period from the accepted one's start: the limit.)
+        for (baud, period_us, airtime_us, char_us, first_damaged) in [
+            (38_400, SLOW_PERIOD_US, SLOW_AIRTIME_US, SLOW_CHAR_US, 1),
+            (500_000, PERIOD_US, AIRTIME_US, CHAR_US, 0),
+        ] {
+            let mut slots = ScanSlots::new();
+            slots.start(361, 50, baud);
+            for k in 0..12 {
+                let last_us =
+                    read_in_one_burst(&mut slots, k * period_us + airtime_us, 732, char_us);
+                if k % 3 != first_damaged {
+                    slots.on_scan(last_us);
+                }
+            }
+            assert_eq!(slots.missed(), 4, "{baud} Bd");
+            // Cut off by a power cycle after one byte: a scan all the same.
+            slots.on_byte(12 * period_us + char_us);
+            assert_eq!(slots.missed(), 5, "{baud} Bd");
+        }
+    }
+
+    #[test]
+    fn a_cut_telegram_read_in_a_burst_keeps_its_own_slot() {
+        // 500 kBd, every telegram read in one burst at its end; a power cycle cuts one off
+        // after 4 ms (the first 200 bytes), read in one burst too.
+        let mut slots = streaming();
+        for k in 0..4 {
+            let last_us = read_in_one_burst(&mut slots, k * PERIOD_US + AIRTIME_US, 732, CHAR_US);
+            slots.on_scan(last_us);
+        }
+        read_in_one_burst(&mut slots, 4 * PERIOD_US + 4_000, 200, CHAR_US);
+        assert_eq!(slots.missed(), 1);
     }
 
     #[test]
@@ -309,14 +521,58 @@ mod tests {
         // At 38 400 Bd a 0.5° telegram takes 191 ms: one scan in eight is sent.
         let mut slots = ScanSlots::new();
         slots.start(361, 50, 38_400);
-        let period_us = 8 * PERIOD_US;
         for k in 0..20 {
-            let start = k * period_us;
+            let start = k * SLOW_PERIOD_US;
             for i in 0..732 {
-                slots.on_byte(start + i * 190_625 / 732);
+                slots.on_byte(start + (i + 1) * SLOW_AIRTIME_US / 732);
             }
-            slots.on_scan(start);
+            slots.on_scan(start + SLOW_AIRTIME_US);
         }
         assert_eq!(slots.missed(), 0);
+    }
+
+    #[test]
+    fn late_last_bytes_do_not_count_the_next_slot() {
+        // The reader is held up 20 ms (more than the 11 ms between a telegram's end and the
+        // next slot) before the last 30 bytes of every telegram, accepted or damaged.
+        let mut slots = ScanSlots::new();
+        slots.start(361, 50, 38_400);
+        for k in 0..12 {
+            let last_us = held_up_telegram(&mut slots, k * SLOW_PERIOD_US, 30, 20_000);
+            if k % 4 != 2 {
+                slots.on_scan(last_us);
+            }
+        }
+        assert_eq!(slots.missed(), 3);
+        // The limit: a damaged last telegram's late bytes count the slot after it too.
+        let mut slots = ScanSlots::new();
+        slots.start(361, 50, 38_400);
+        for k in 0..2 {
+            let last_us = held_up_telegram(&mut slots, k * SLOW_PERIOD_US, 0, 0);
+            slots.on_scan(last_us);
+        }
+        held_up_telegram(&mut slots, 2 * SLOW_PERIOD_US, 30, 20_000);
+        assert_eq!(slots.missed(), 2);
+    }
+
+    #[test]
+    fn a_telegram_read_more_than_half_a_period_late_is_placed_by_the_next() {
+        // 38 400 Bd; the second telegram is read in one burst 150 ms after its end, so it
+        // looks nearer the third slot than its own; the third, on time, corrects that.
+        let mut slots = ScanSlots::new();
+        slots.start(361, 50, 38_400);
+        let last_us = held_up_telegram(&mut slots, 0, 0, 0);
+        slots.on_scan(last_us);
+        let read_us = SLOW_PERIOD_US + SLOW_AIRTIME_US + 150_000;
+        let last_us = read_in_one_burst(&mut slots, read_us, 732, SLOW_CHAR_US);
+        slots.on_scan(last_us);
+        let last_us = held_up_telegram(&mut slots, 2 * SLOW_PERIOD_US, 0, 0);
+        slots.on_scan(last_us);
+        assert_eq!(slots.missed(), 0);
+        // A damaged one later is still counted.
+        held_up_telegram(&mut slots, 3 * SLOW_PERIOD_US, 0, 0);
+        let last_us = held_up_telegram(&mut slots, 4 * SLOW_PERIOD_US, 0, 0);
+        slots.on_scan(last_us);
+        assert_eq!(slots.missed(), 1);
     }
 }

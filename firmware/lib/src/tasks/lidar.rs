@@ -230,13 +230,17 @@ fn handle_event(
     slots: &mut ScanSlots,
     event: Event<'_>,
 ) -> Actions {
-    if let Event::Telegram { telegram, stamp_us } = &event
+    if let Event::Telegram {
+        telegram,
+        stamp_us,
+        end_us,
+    } = &event
         && telegram.command() == SCAN_CODE
         && let Some(setup) = setup
         && let Ok(scan) = ScanRepr::parse(telegram)
     {
         *scans = scans.wrapping_add(1);
-        slots.on_scan(*stamp_us);
+        slots.on_scan(*end_us);
         let msg = scan.to_msg(
             *stamp_us,
             *scans,
