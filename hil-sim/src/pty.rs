@@ -196,6 +196,33 @@ impl BaudRate for BoardPort {
     }
 }
 
+/// Appends to `out` every byte `port` holds now, without waiting for more.
+///
+/// # Errors
+/// A read error other than "nothing there" or an interruption.
+pub fn read_available(port: &mut TTYPort, out: &mut Vec<u8>) -> io::Result<()> {
+    use std::io::Read;
+    port.set_timeout(std::time::Duration::ZERO)
+        .map_err(io::Error::other)?;
+    let mut buf = [0u8; 4096];
+    loop {
+        match port.read(&mut buf) {
+            Ok(0) => return Ok(()),
+            Ok(n) => out.extend_from_slice(&buf[..n]),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
+                ) =>
+            {
+                return Ok(());
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -42,7 +42,6 @@ use std::time::{Duration, Instant};
 
 use firmware::sick::{BringUpConfig, LmsBaud};
 use serde::Serialize;
-use serialport::{SerialPort, TTYPort};
 
 use crate::pty::PtyLink;
 use crate::run::{Line, ReportedBaud, RunOptions, RunSummary, WallLines, run_on};
@@ -282,25 +281,7 @@ impl DebugChannel {
         let Some(link) = link.as_mut() else {
             return Ok(());
         };
-        let port: &mut TTYPort = &mut link.device;
-        port.set_timeout(Duration::ZERO).map_err(io::Error::other)?;
-        let mut buf = [0u8; 256];
-        loop {
-            match port.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => pending.extend_from_slice(&buf[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-                    ) =>
-                {
-                    break;
-                }
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(e),
-            }
-        }
+        crate::pty::read_available(&mut link.device, pending)?;
         // In order, still holding the reader: a concurrent pump sees the lines after these.
         while let Some(end) = pending.iter().position(|&b| b == b'\n') {
             let line: Vec<u8> = pending.drain(..=end).collect();

@@ -39,7 +39,7 @@
 //! board reacting a little later than the lock-step firmware receives the same scans and fixes.
 
 use std::collections::VecDeque;
-use std::io::{self, Read, Write};
+use std::io::{self, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -166,27 +166,7 @@ impl Endpoint {
     /// Reads what is there without waiting.
     fn read_available(&mut self) -> io::Result<Vec<u8>> {
         let mut out = Vec::new();
-        let mut buf = [0u8; 4096];
-        let device = self.line.device();
-        device
-            .set_timeout(Duration::ZERO)
-            .map_err(io::Error::other)?;
-        loop {
-            match device.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => out.extend_from_slice(&buf[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-                    ) =>
-                {
-                    break;
-                }
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(e),
-            }
-        }
+        crate::pty::read_available(self.line.device(), &mut out)?;
         self.read += out.len() as u64;
         Ok(out)
     }
