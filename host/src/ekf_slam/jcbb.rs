@@ -9,8 +9,9 @@
 //! including the correlations through the robot and the map. One spurious pairing rarely
 //! survives that test next to correct ones, which is what makes the batch robust where
 //! nearest-neighbour gating is not. Ties in the number of pairings go to the lower joint
-//! distance. A node budget bounds the search; when it runs out the best hypothesis found so
-//! far is returned.
+//! distance. A branch is cut when the measurements left that have any candidate could not
+//! bring it level with the best hypothesis found. A node budget bounds the search; when it
+//! runs out the best hypothesis found so far is returned.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -167,10 +168,19 @@ pub fn jcbb(
             cross[b * flat.len() + a] = block.transpose();
         }
     }
+    // reachable[i]: measurements from i on that have a candidate at all, the most pairings
+    // the rest of the tree can still add.
+    let mut reachable = vec![0; m + 1];
+    for i in (0..m).rev() {
+        reachable[i] = reachable[i + 1] + usize::from(!candidates[i].is_empty());
+    }
     let mut search = Search {
         candidates,
         noise,
         offsets,
+        reachable,
+        paired: Vec::with_capacity(m),
+        rows: [vec![0.0; 2 * m], vec![0.0; 2 * m]],
         cross,
         flat_len: flat.len(),
         thresholds,
@@ -197,6 +207,12 @@ struct Search<'a> {
     noise: &'a [Matrix2<f64>],
     /// Index of each measurement's first candidate in the flat list.
     offsets: Vec<usize>,
+    /// Measurements from each index on that have a candidate.
+    reachable: Vec<usize>,
+    /// Flat indices of the current hypothesis's pairings, in order.
+    paired: Vec<usize>,
+    /// Scratch rows of the factor's extension.
+    rows: [Vec<f64>; 2],
     /// `H_a P H_bᵀ` for flat candidates `a`, `b`, row-major.
     cross: Vec<Matrix2<f64>>,
     flat_len: usize,
@@ -239,6 +255,10 @@ impl Search<'_> {
             return;
         }
         for c in 0..self.candidates[i].len() {
+            // Pairing i can only win if the rest could still reach the best.
+            if pairings + 1 + self.reachable[i + 1] < self.best_pairings {
+                break;
+            }
             let target = self.candidates[i][c].target;
             let taken = hypothesis[..i].iter().enumerate().any(|(k, choice)| {
                 choice.is_some_and(|ck| self.candidates[k][ck].target == target)
@@ -246,17 +266,19 @@ impl Search<'_> {
             if taken {
                 continue;
             }
-            let Some(added) = self.extend(hypothesis, i, c, pairings) else {
+            let Some(added) = self.extend(i, c, pairings) else {
                 continue;
             };
             if distance2 + added < self.thresholds[pairings + 1] {
                 hypothesis[i] = Some(c);
+                self.paired.push(self.offsets[i] + c);
                 self.descend(i + 1, hypothesis, pairings + 1, distance2 + added);
+                self.paired.pop();
                 hypothesis[i] = None;
             }
         }
         // Leaving measurement i unpaired can only win if the rest could still beat the best.
-        if pairings + (m - i - 1) >= self.best_pairings.max(1) {
+        if pairings + self.reachable[i + 1] >= self.best_pairings.max(1) {
             self.descend(i + 1, hypothesis, pairings, distance2);
         }
     }
@@ -265,24 +287,30 @@ impl Search<'_> {
     /// measurement `i` with its candidate `c` as pairing number `k` (rows `2k`, `2k + 1`), and
     /// returns what the pairing adds to the joint squared distance; `None` when the joint
     /// covariance is not positive definite. O(k²) instead of refactoring the whole matrix.
-    fn extend(
+    fn extend(&mut self, i: usize, c: usize, k: usize) -> Option<f64> {
+        let flat = self.offsets[i] + c;
+        debug_assert_eq!(self.paired.len(), k);
+        // Solve L11 x = s for each of the two new rows of S21 (forward substitution).
+        let mut rows = std::mem::take(&mut self.rows);
+        let extension = self.extension(&mut rows, flat, i, c, k);
+        self.rows = rows;
+        extension
+    }
+
+    /// [`Self::extend`] with its scratch rows.
+    fn extension(
         &mut self,
-        hypothesis: &[Option<usize>],
+        rows: &mut [Vec<f64>; 2],
+        flat: usize,
         i: usize,
         c: usize,
         k: usize,
     ) -> Option<f64> {
-        let flat = self.offsets[i] + c;
-        let earlier: Vec<(usize, usize)> = hypothesis[..i]
-            .iter()
-            .enumerate()
-            .filter_map(|(j, choice)| choice.map(|cj| (j, self.offsets[j] + cj)))
-            .collect();
-        debug_assert_eq!(earlier.len(), k);
-        // Solve L11 x = s for each of the two new rows of S21 (forward substitution).
-        let mut rows = [vec![0.0; 2 * k], vec![0.0; 2 * k]];
+        for row in rows.iter_mut() {
+            row.resize(2 * k, 0.0);
+        }
         for (r, row) in rows.iter_mut().enumerate() {
-            for (a, &(_, fa)) in earlier.iter().enumerate() {
+            for (a, &fa) in self.paired.iter().enumerate() {
                 let block = self.cross[flat * self.flat_len + fa];
                 row[2 * a] = block[(r, 0)];
                 row[2 * a + 1] = block[(r, 1)];
