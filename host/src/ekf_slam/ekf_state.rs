@@ -236,8 +236,17 @@ impl EkfState {
         // Grown in place (the old landmarks keep their place and their entries; the buffer is
         // reallocated, not copied into fresh zeroed memory): every entry of the old pose's rows
         // and columns and of the new rows and columns is written below.
-        let mut covariance = std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0));
-        covariance.resize_mut(dim, dim, 0.0);
+        let mut data: Vec<f64> = std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0))
+            .data
+            .into();
+        if data.capacity() < dim * dim {
+            // Room for a quarter more rows and columns, so the joins that follow grow the
+            // matrix without reallocating (and copying) it each time.
+            let planned = dim + dim / 4;
+            data.reserve_exact(planned * planned - data.len());
+        }
+        // By value: `resize_mut` would clone the matrix first.
+        let mut covariance = DMatrix::from_vec(n, n, data).resize(dim, dim, 0.0);
         // The new pose and the new landmarks with the old landmarks.
         let cross_pose = cross.view((0, 3), (3, landmarks));
         let cross_appended = cross.view((3, 3), (appended, landmarks));
