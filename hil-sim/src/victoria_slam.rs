@@ -189,6 +189,8 @@ pub struct FilterCounts {
     pub fused: usize,
     /// Revisits confirmed by the history memory.
     pub recognised_places: usize,
+    /// Of those, places the join turned down (implausible to the map, too few trees).
+    pub rejected_places: usize,
     /// Updates that failed (not positive definite).
     pub failed_updates: usize,
 }
@@ -201,6 +203,7 @@ impl From<SubmapSlamStats> for FilterCounts {
             ambiguous: stats.observations.ambiguous,
             fused: stats.fused,
             recognised_places: stats.recognised_places,
+            rejected_places: stats.rejected_places,
             failed_updates: stats.failed_updates,
         }
     }

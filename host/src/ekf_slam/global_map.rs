@@ -31,6 +31,9 @@ use super::options::AssociationOptions;
 /// only keeps the innovation covariance invertible).
 const FUSION_SIGMA_M: f64 = 1e-3;
 
+/// Confidence of the test that a recognised place agrees with the map's covariance.
+const PLACE_CONFIDENCE: f64 = 0.999;
+
 /// What one join did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct JoinReport {
@@ -41,6 +44,9 @@ pub struct JoinReport {
     /// Fused landmarks first mapped at least two local maps earlier: the robot is back in a
     /// place it left before (a loop closed), not just overlapping the previous local map.
     pub revisited: usize,
+    /// A place the history memory recognised was turned down: the map found it implausible
+    /// and too few trees backed it ([`GlobalMap::join`]).
+    pub place_rejected: bool,
 }
 
 /// The joined map. See the [module documentation](self).
@@ -202,13 +208,17 @@ impl GlobalMap {
         let mut pairs = self.pair(old_count, options);
         // Pairings a place recognised by the history memory adds, for landmarks the gate in
         // the drifted global frame could not pair.
-        for &(local, old) in recognised {
-            let new = old_count + local;
-            let free = new < self.info.len()
-                && old < old_count
-                && pairs.iter().all(|&(n, o)| n != new && o != old);
-            if free {
-                pairs.push((new, old));
+        let place: Vec<(usize, usize)> = recognised
+            .iter()
+            .map(|&(local, old)| (old_count + local, old))
+            .filter(|&(new, old)| new < self.info.len() && old < old_count)
+            .collect();
+        let place_rejected = !place.is_empty() && !self.place_is_credible(&place, options);
+        if !place_rejected {
+            for (new, old) in place {
+                if pairs.iter().all(|&(n, o)| n != new && o != old) {
+                    pairs.push((new, old));
+                }
             }
         }
         let revisited = pairs
@@ -220,6 +230,51 @@ impl GlobalMap {
             fused: pairs.len(),
             added: count - pairs.len(),
             revisited,
+            place_rejected,
+        })
+    }
+
+    /// Whether the pairs `(new, old)` of a recognised place may be fused: always when the
+    /// map's covariance finds them jointly plausible (their stacked innovation within the
+    /// [`PLACE_CONFIDENCE`] chi-square quantile), otherwise only with at least
+    /// `options.min_pairs_against_the_map` pairs. A revisit after a long drift moves the map
+    /// further than its (over-confident) covariance allows and is backed by many trees; a
+    /// look-alike place found by a well-localised robot contradicts the map by orders of
+    /// magnitude more and is backed by few.
+    fn place_is_credible(&self, pairs: &[(usize, usize)], options: &AssociationOptions) -> bool {
+        if pairs.len() >= options.min_pairs_against_the_map {
+            return true;
+        }
+        let m = 2 * pairs.len();
+        let covariance = self.state.covariance();
+        let mean = self.state.mean();
+        let offsets: Vec<(usize, usize)> = pairs
+            .iter()
+            .map(|&(new, old)| {
+                (
+                    self.state.landmark_offset(new),
+                    self.state.landmark_offset(old),
+                )
+            })
+            .collect();
+        // S = H P Hᵀ + R for the stacked differences l_old − l_new.
+        let mut s = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
+        let mut innovation = DVector::zeros(m);
+        for (a, &(na, oa)) in offsets.iter().enumerate() {
+            for d in 0..2 {
+                innovation[2 * a + d] = mean[oa + d] - mean[na + d];
+                for (b, &(nb, ob)) in offsets.iter().enumerate() {
+                    for e in 0..2 {
+                        s[(2 * a + d, 2 * b + e)] += covariance[(na + d, nb + e)]
+                            - covariance[(na + d, ob + e)]
+                            - covariance[(oa + d, nb + e)]
+                            + covariance[(oa + d, ob + e)];
+                    }
+                }
+            }
+        }
+        s.cholesky().is_some_and(|cholesky| {
+            innovation.dot(&cholesky.solve(&innovation)) <= chi_square_quantile(m, PLACE_CONFIDENCE)
         })
     }
 
@@ -313,5 +368,81 @@ impl GlobalMap {
             .map(|i| self.origin_map[i])
             .collect();
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ekf_slam::range_bearing::{LandmarkObservation, RangeBearingModel};
+
+    const TREES: [[f64; 2]; 6] = [
+        [8.0, 3.0],
+        [12.0, -4.0],
+        [15.0, 6.0],
+        [20.0, -1.0],
+        [6.0, -7.0],
+        [18.0, 9.0],
+    ];
+
+    /// A local map at the origin of its base that saw `trees` shifted by `shift_m`.
+    fn local_map(shift_m: [f64; 2]) -> LocalMap {
+        let sensor = RangeBearingModel::default();
+        let observations: Vec<LandmarkObservation> = TREES
+            .iter()
+            .map(|tree| {
+                let (x, y) = (tree[0] + shift_m[0], tree[1] + shift_m[1]);
+                LandmarkObservation {
+                    range_m: x.hypot(y),
+                    bearing_rad: y.atan2(x),
+                    diameter_m: Some(0.3),
+                }
+            })
+            .collect();
+        let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        local
+            .observe(&observations, &sensor, &AssociationOptions::default())
+            .expect("first observations");
+        local
+    }
+
+    /// A global map holding the trees, and the join of a second local map that saw them
+    /// shifted, told by place recognition that they are the same trees.
+    fn join_recognised(shift_m: [f64; 2], min_pairs: usize) -> (JoinReport, usize) {
+        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let options = AssociationOptions {
+            new_landmark_distance2: 0.0,
+            min_pairs_against_the_map: min_pairs,
+            ..AssociationOptions::default()
+        };
+        global
+            .join(local_map([0.0, 0.0]), &options, &[])
+            .expect("first join");
+        let recognised: Vec<(usize, usize)> = (0..TREES.len()).map(|i| (i, i)).collect();
+        let report = global
+            .join(local_map(shift_m), &options, &recognised)
+            .expect("second join");
+        (report, global.state().landmark_count())
+    }
+
+    #[test]
+    fn a_place_the_map_finds_plausible_is_fused() {
+        let (report, landmarks) = join_recognised([0.0, 0.0], 15);
+        assert!(!report.place_rejected);
+        assert_eq!((report.fused, landmarks), (6, 6));
+    }
+
+    #[test]
+    fn an_implausible_place_backed_by_few_trees_is_turned_down() {
+        let (report, landmarks) = join_recognised([30.0, 0.0], 15);
+        assert!(report.place_rejected);
+        assert_eq!((report.fused, landmarks), (0, 12));
+    }
+
+    #[test]
+    fn an_implausible_place_backed_by_enough_trees_is_fused() {
+        let (report, landmarks) = join_recognised([30.0, 0.0], 6);
+        assert!(!report.place_rejected);
+        assert_eq!((report.fused, landmarks), (6, 6));
     }
 }

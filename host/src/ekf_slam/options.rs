@@ -17,11 +17,15 @@ pub struct AssociationOptions {
     pub diameter_tolerance_m: f64,
     /// ...plus this fraction of the larger diameter.
     pub diameter_tolerance_fraction: f64,
+    /// Map joining only: a place the history memory recognised whose pairs the map's
+    /// covariance finds implausible is fused only when at least this many trees back it.
+    pub min_pairs_against_the_map: usize,
 }
 
 impl Default for AssociationOptions {
     /// 99 % gates; new landmarks beyond a squared distance of 25; diameters within
-    /// 0.15 m + 30 %.
+    /// 0.15 m + 30 %; a place the map finds implausible needs 15 trees (three times the
+    /// place recognition's minimum).
     fn default() -> Self {
         AssociationOptions {
             individual_confidence: 0.99,
@@ -29,6 +33,7 @@ impl Default for AssociationOptions {
             new_landmark_distance2: 25.0,
             diameter_tolerance_m: 0.15,
             diameter_tolerance_fraction: 0.3,
+            min_pairs_against_the_map: 15,
         }
     }
 }

@@ -50,6 +50,8 @@ pub struct SubmapSlamStats {
     pub loop_closures: usize,
     /// Revisits the history memory confirmed.
     pub recognised_places: usize,
+    /// Of those, the places the join turned down as implausible and too thinly backed.
+    pub rejected_places: usize,
     /// Updates skipped because the innovation covariance was not positive definite.
     pub failed_updates: usize,
 }
@@ -197,6 +199,9 @@ impl<M: MotionModel> SubmapSlam<M> {
         self.stats.fused += report.fused;
         if report.revisited >= 2 {
             self.stats.loop_closures += 1;
+        }
+        if report.place_rejected {
+            self.stats.rejected_places += 1;
         }
         let (mut mean, mut covariance) = self.motion.initial_robot([0.0; 3]);
         for i in 3..mean.len() {
