@@ -188,6 +188,10 @@ enum Command {
         /// Monte-Carlo runs.
         #[arg(long, default_value_t = 20)]
         runs: usize,
+        /// Number of the first run: runs `first-run .. first-run + runs` of the seed's set,
+        /// each with the same noise as in a longer set (to look at one run again).
+        #[arg(long, default_value_t = 0)]
+        first_run: usize,
         /// Seed of the world and the noise.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -611,12 +615,14 @@ fn main() -> ExitCode {
         Command::Nees {
             world,
             runs,
+            first_run,
             seed,
             duration,
             local_map_landmarks,
         } => nees(hil_sim::nees::NeesOptions {
             world,
             runs,
+            first_run,
             seed,
             duration_s: duration,
             local_map_landmarks,

@@ -30,6 +30,9 @@ pub struct NeesOptions {
     pub world: WorldKind,
     /// Monte-Carlo runs.
     pub runs: usize,
+    /// Number of the first run: runs `first_run .. first_run + runs` of the seed's set are
+    /// made, each with the noise it has in any set.
+    pub first_run: usize,
     /// Seed of the world and of the runs' noise.
     pub seed: u64,
     /// Length of each run, seconds.
@@ -41,11 +44,12 @@ pub struct NeesOptions {
 }
 
 impl Default for NeesOptions {
-    /// Outdoor, 20 runs of 120 s, seed 1, local maps of 30 landmarks, default noise.
+    /// Outdoor, runs 0–19 of 120 s, seed 1, local maps of 30 landmarks, default noise.
     fn default() -> Self {
         NeesOptions {
             world: WorldKind::Outdoor,
             runs: 20,
+            first_run: 0,
             seed: 1,
             duration_s: 120.0,
             local_map_landmarks: 30,
@@ -116,7 +120,7 @@ pub fn run_nees(options: &NeesOptions) -> Result<NeesReport, NeesError> {
     let mut submap_sum: Vec<f64> = Vec::new();
     let mut full_sum: Vec<f64> = Vec::new();
     let (mut submap_error, mut full_error, mut local_maps) = (0.0, 0.0, 0);
-    for run in 0..options.runs {
+    for run in options.first_run..options.first_run + options.runs {
         let run_seed = options
             .seed
             .wrapping_mul(1_000_003)
