@@ -201,6 +201,13 @@ enum Command {
         /// Landmarks per local map of the submap filter.
         #[arg(long, default_value_t = 30)]
         local_map_landmarks: usize,
+        /// Standard deviation of a tree's range, in the simulator and in the filters, m.
+        #[arg(long, default_value_t = 0.05)]
+        range_sigma_m: f64,
+        /// Standard deviation of a tree's bearing, in the simulator and in the filters,
+        /// degrees.
+        #[arg(long, default_value_t = 0.5)]
+        bearing_sigma_deg: f64,
     },
     /// EKF SLAM with local maps over the Victoria Park run (tree detections, car odometry,
     /// GPS), measured against its GPS.
@@ -619,6 +626,8 @@ fn main() -> ExitCode {
             seed,
             duration,
             local_map_landmarks,
+            range_sigma_m,
+            bearing_sigma_deg,
         } => nees(hil_sim::nees::NeesOptions {
             world,
             runs,
@@ -626,7 +635,11 @@ fn main() -> ExitCode {
             seed,
             duration_s: duration,
             local_map_landmarks,
-            ..Default::default()
+            noise: hil_sim::landmark_sim::NoiseModel {
+                range_sigma_m,
+                bearing_sigma_rad: bearing_sigma_deg.to_radians(),
+                ..Default::default()
+            },
         }),
         Command::ReplayVictoria {
             dir,
