@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::{compose_pose, transform_point};
-use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, jcbb};
+use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
@@ -247,35 +247,39 @@ impl GlobalMap {
         }
         let m = 2 * pairs.len();
         let covariance = self.state.covariance();
-        let mean = self.state.mean();
-        let offsets: Vec<(usize, usize)> = pairs
+        let jacobians: Vec<Vec<JacobianBlock>> = pairs
             .iter()
-            .map(|&(new, old)| {
-                (
-                    self.state.landmark_offset(new),
-                    self.state.landmark_offset(old),
-                )
-            })
+            .map(|&(new, old)| self.difference_jacobian(new, old))
             .collect();
-        // S = H P Hᵀ + R for the stacked differences l_old − l_new.
+        // S = H P Hᵀ + R and ν = l_old − l_new, stacked over the pairs.
         let mut s = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
         let mut innovation = DVector::zeros(m);
-        for (a, &(na, oa)) in offsets.iter().enumerate() {
-            for d in 0..2 {
-                innovation[2 * a + d] = mean[oa + d] - mean[na + d];
-                for (b, &(nb, ob)) in offsets.iter().enumerate() {
-                    for e in 0..2 {
-                        s[(2 * a + d, 2 * b + e)] += covariance[(na + d, nb + e)]
-                            - covariance[(na + d, ob + e)]
-                            - covariance[(oa + d, nb + e)]
-                            + covariance[(oa + d, ob + e)];
-                    }
-                }
+        for (a, (&(new, old), jacobian_a)) in pairs.iter().zip(&jacobians).enumerate() {
+            let (l_new, l_old) = (self.state.landmark(new), self.state.landmark(old));
+            innovation[2 * a] = l_old[0] - l_new[0];
+            innovation[2 * a + 1] = l_old[1] - l_new[1];
+            for (b, jacobian_b) in jacobians.iter().enumerate() {
+                let mut block = s.fixed_view_mut::<2, 2>(2 * a, 2 * b);
+                block += cross_covariance(covariance, jacobian_a, jacobian_b);
             }
         }
         s.cholesky().is_some_and(|cholesky| {
             innovation.dot(&cholesky.solve(&innovation)) <= chi_square_quantile(m, PLACE_CONFIDENCE)
         })
+    }
+
+    /// The Jacobian of `l_new − l_old` (the difference a fusion drives to zero).
+    fn difference_jacobian(&self, new: usize, old: usize) -> Vec<JacobianBlock> {
+        vec![
+            JacobianBlock {
+                column: self.state.landmark_offset(new),
+                matrix: DMatrix::identity(2, 2),
+            },
+            JacobianBlock {
+                column: self.state.landmark_offset(old),
+                matrix: -DMatrix::identity(2, 2),
+            },
+        ]
     }
 
     /// Pairs the landmarks from `first_new` on with the older ones: `(new, old)` indices.
@@ -319,16 +323,7 @@ impl GlobalMap {
                 ) {
                     continue;
                 }
-                let jacobian = vec![
-                    JacobianBlock {
-                        column: cn,
-                        matrix: DMatrix::identity(2, 2),
-                    },
-                    JacobianBlock {
-                        column: co,
-                        matrix: -DMatrix::identity(2, 2),
-                    },
-                ];
+                let jacobian = self.difference_jacobian(new, old);
                 let candidate =
                     PairingCandidate::new(old, innovation, jacobian, covariance, &noise);
                 if let Some(candidate) = candidate.filter(|c| c.distance2 < gate) {
