@@ -202,11 +202,11 @@ enum Command {
         #[arg(long, default_value_t = 30)]
         local_map_landmarks: usize,
         /// Standard deviation of a tree's range, in the simulator and in the filters, m.
-        #[arg(long, default_value_t = 0.05)]
+        #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = parse_sigma)]
         range_sigma_m: f64,
         /// Standard deviation of a tree's bearing, in the simulator and in the filters,
         /// degrees.
-        #[arg(long, default_value_t = 0.5)]
+        #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = parse_sigma)]
         bearing_sigma_deg: f64,
     },
     /// EKF SLAM with local maps over the Victoria Park run (tree detections, car odometry,
@@ -227,7 +227,7 @@ enum Command {
         #[arg(long)]
         no_gps: bool,
         /// Standard deviation of a GPS fix on each axis, m.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_sigma)]
         gps_sigma_m: f64,
         /// Close a local map once it holds this many landmarks; 0 runs one global EKF.
         #[arg(long, default_value_t = 30)]
@@ -246,16 +246,16 @@ enum Command {
         #[arg(long, allow_hyphen_values = true, value_parser = parse_datum)]
         datum: Option<host::georef::LocalFrame>,
         /// Standard deviation of a tree's range, m.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_sigma)]
         sigma_range_m: f64,
         /// Standard deviation of a tree's bearing, degrees.
-        #[arg(long, default_value_t = 3.0)]
+        #[arg(long, default_value_t = 3.0, allow_hyphen_values = true, value_parser = parse_sigma)]
         sigma_bearing_deg: f64,
         /// Standard deviation of the measured wheel speed, m/s.
-        #[arg(long, default_value_t = 0.5)]
+        #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = parse_sigma)]
         sigma_speed_mps: f64,
         /// Standard deviation of the measured steering angle, degrees.
-        #[arg(long, default_value_t = 5.0)]
+        #[arg(long, default_value_t = 5.0, allow_hyphen_values = true, value_parser = parse_sigma)]
         sigma_steer_deg: f64,
         /// Lateral offset of the laser, m, positive to the left.
         #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
@@ -423,6 +423,18 @@ fn replay_carmen(
         options.out.display()
     );
     Ok(())
+}
+
+/// Parses a standard deviation: a finite number, at least 0.
+fn parse_sigma(text: &str) -> Result<f64, String> {
+    let sigma: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
+    if sigma.is_finite() && sigma >= 0.0 {
+        Ok(sigma)
+    } else {
+        Err(format!(
+            "{text:?}: a standard deviation must be a finite number of at least 0"
+        ))
+    }
 }
 
 /// Parses `LAT,LON` in degrees into a local frame at sea level.
@@ -699,6 +711,20 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("hil-sim: {e}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_standard_deviation_is_finite_and_not_negative() {
+        assert_eq!(parse_sigma("0.5"), Ok(0.5));
+        assert_eq!(parse_sigma(" 0 "), Ok(0.0));
+        for bad in ["-1", "NaN", "inf", "half"] {
+            assert!(parse_sigma(bad).is_err(), "{bad}");
         }
     }
 }
