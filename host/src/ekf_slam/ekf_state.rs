@@ -417,19 +417,8 @@ impl EkfState {
             .cholesky()
             .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
 
-        let count = self.landmark_count();
-        let mut removed = vec![false; count];
-        for &(duplicate, _) in pairs {
-            if duplicate < count {
-                removed[duplicate] = true;
-            }
-        }
-        let keep: Vec<usize> = (0..self.robot_dim)
-            .chain((0..count).filter(|&i| !removed[i]).flat_map(|i| {
-                let o = self.robot_dim + 2 * i;
-                [o, o + 1]
-            }))
-            .collect();
+        let duplicates: Vec<usize> = pairs.iter().map(|&(duplicate, _)| duplicate).collect();
+        let keep = self.entries_without(&duplicates);
         // W = P Hᵀ L⁻ᵀ over the kept rows (m × kept, transposed), and the mean step K ν.
         let p_ht_kept = p_ht.select_rows(keep.iter());
         let whitened_innovation = cholesky
@@ -457,25 +446,31 @@ impl EkfState {
         Ok(())
     }
 
+    /// The state entries (robot block, then landmark pairs, increasing) that remain once the
+    /// listed landmarks are removed; indices out of range are ignored.
+    fn entries_without(&self, landmarks: &[usize]) -> Vec<usize> {
+        let count = self.landmark_count();
+        let mut removed = vec![false; count];
+        for &i in landmarks {
+            if i < count {
+                removed[i] = true;
+            }
+        }
+        (0..self.robot_dim)
+            .chain((0..count).filter(|&i| !removed[i]).flat_map(|i| {
+                let o = self.robot_dim + 2 * i;
+                [o, o + 1]
+            }))
+            .collect()
+    }
+
     /// Removes the landmarks whose indices are listed (marginalising them out); the rest keep
     /// their order.
     pub fn remove_landmarks(&mut self, indices: &[usize]) {
         if indices.is_empty() {
             return;
         }
-        let count = self.landmark_count();
-        let mut drop = vec![false; count];
-        for &i in indices {
-            if i < count {
-                drop[i] = true;
-            }
-        }
-        let keep: Vec<usize> = (0..self.robot_dim)
-            .chain((0..count).filter(|&i| !drop[i]).flat_map(|i| {
-                let o = self.robot_dim + 2 * i;
-                [o, o + 1]
-            }))
-            .collect();
+        let keep = self.entries_without(indices);
         self.mean = self.mean.select_rows(keep.iter());
         self.covariance = gather(
             std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
