@@ -7,7 +7,10 @@
 //! off for a local alignment: the exact raster matcher searches a wide window against the last
 //! scans, around the prediction and around the last pose, the alignment is run again from
 //! what it found and from the last pose, and the candidate with the most end points on the
-//! submap's surfaces wins.
+//! submap's surfaces wins. When even that leaves fewer than
+//! [`LocalTrackingOptions::full_turn_below_inlier_fraction`](super::LocalTrackingOptions) of
+//! the end points on the surfaces, the robot turned further than the window reaches (a turn
+//! on the spot that reverses the last one), and the search runs once more over every heading.
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
 
@@ -41,6 +44,8 @@ pub struct LocalTracker {
     active: Vec<SlamSubmap>,
     recent: RecentScans,
     wide_search: FastMatcher,
+    /// The wide search's window over every heading.
+    full_turn_search: FastMatcher,
     last_pose_in_local: Option<Pose2>,
     last_motion: Pose2,
     last_odometry: Option<Pose2>,
@@ -61,8 +66,16 @@ impl LocalTracker {
             local.search_rotation_step_rad,
             256,
         )?;
+        let full_turn_search = window_matcher(
+            local.search_window_m,
+            std::f64::consts::PI,
+            local.search_resolution_m,
+            local.search_rotation_step_rad,
+            256,
+        )?;
         Ok(LocalTracker {
             wide_search,
+            full_turn_search,
             recent: RecentScans::new(local.recent_scans),
             active: Vec::new(),
             last_pose_in_local: None,
@@ -112,11 +125,15 @@ impl LocalTracker {
                 }
             }
             for guess in guesses {
-                if let Some(candidate) = self.align(&points, guess)
-                    && best.is_none_or(|(_, fit)| candidate.1.inlier_fraction > fit.inlier_fraction)
-                {
-                    best = Some(candidate);
-                }
+                self.keep_better(&mut best, &points, guess);
+            }
+            if best
+                .is_none_or(|(_, fit)| fit.inlier_fraction < local.full_turn_below_inlier_fraction)
+                && let Ok(found) =
+                    self.full_turn_search
+                        .match_scans(&reference, scan, Pose2::IDENTITY)
+            {
+                self.keep_better(&mut best, &points, last_pose * found.reference_from_new);
             }
         }
         let (pose, fit) = best.unwrap_or((predicted, SubmapFit::default()));
@@ -146,6 +163,21 @@ impl LocalTracker {
         let found = align(submap.points(), points, guess, icp)?;
         let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
         Some((submap_in_local * found.map_from_robot, fit))
+    }
+
+    /// Aligns `points` from `guess_in_local` and keeps the result in `best` when more of the
+    /// end points lie on the submap's surfaces than with `best`.
+    fn keep_better(
+        &self,
+        best: &mut Option<(Pose2, SubmapFit)>,
+        points: &[[f64; 2]],
+        guess_in_local: Pose2,
+    ) {
+        if let Some(candidate) = self.align(points, guess_in_local)
+            && best.is_none_or(|(_, fit)| candidate.1.inlier_fraction > fit.inlier_fraction)
+        {
+            *best = Some(candidate);
+        }
     }
 
     /// Inserts the scan at `pose` and starts and finishes submaps as due.
@@ -188,5 +220,49 @@ impl LocalTracker {
             submap.finish();
         }
         submaps
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
+    use std::f64::consts::FRAC_PI_2;
+
+    /// An irregular room, so that no turn maps it onto itself.
+    fn room_scan(pose: Pose2) -> Scan {
+        let walls = polygon_walls(&[
+            [-4.0, -3.0],
+            [5.0, -3.0],
+            [5.0, 2.0],
+            [1.0, 4.0],
+            [-2.0, 4.0],
+            [-4.0, 1.0],
+        ]);
+        cast_scan(&walls, pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0)
+    }
+
+    fn tracked_heading_deg(options: SlamOptions, headings_deg: &[f64]) -> f64 {
+        let mut tracker = LocalTracker::new(options).unwrap();
+        let mut last = Pose2::IDENTITY;
+        for heading in headings_deg {
+            let scan = room_scan(Pose2::new(0.3, -0.2, heading.to_radians()));
+            last = tracker.track(&scan, None).pose_in_local;
+        }
+        last.theta_rad.to_degrees()
+    }
+
+    #[test]
+    fn a_turn_back_beyond_the_search_window_is_found() {
+        // A turn of -30° and then one of +62° on the spot: the second lies outside the
+        // ±45° window around both the repeated motion and standing still.
+        let headings_deg = [0.0, -30.0, 32.0];
+        let found = tracked_heading_deg(SlamOptions::default(), &headings_deg);
+        assert!((found - 32.0).abs() < 0.5, "{found}°");
+
+        let mut without = SlamOptions::default();
+        without.local.full_turn_below_inlier_fraction = 0.0;
+        let lost = tracked_heading_deg(without, &headings_deg);
+        assert!((lost - 32.0).abs() > 5.0, "{lost}°");
     }
 }

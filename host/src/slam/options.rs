@@ -87,6 +87,9 @@ pub struct LocalTrackingOptions {
     /// An alignment from the prediction that leaves fewer of the scan's end points on the
     /// submap's surfaces than this triggers the wide search.
     pub min_inlier_fraction: f64,
+    /// When the wide search still leaves fewer end points than this on the submap's surfaces,
+    /// it runs once more over every heading (a turn larger than its rotation window).
+    pub full_turn_below_inlier_fraction: f64,
     /// Half width of the wide search's translation window, metres.
     pub search_window_m: f64,
     /// Half width of the wide search's rotation window, radians.
@@ -104,6 +107,7 @@ impl Default for LocalTrackingOptions {
         LocalTrackingOptions {
             icp: IcpOptions::default(),
             min_inlier_fraction: 0.8,
+            full_turn_below_inlier_fraction: 0.5,
             search_window_m: 1.0,
             search_window_rad: 45f64.to_radians(),
             search_resolution_m: 0.1,
