@@ -10,7 +10,8 @@
 //! submap's surfaces wins. When even that leaves fewer than
 //! [`LocalTrackingOptions::full_turn_below_inlier_fraction`](super::LocalTrackingOptions) of
 //! the end points on the surfaces, the robot turned further than the window reaches (a turn
-//! on the spot that reverses the last one), and the search runs once more over every heading.
+//! on the spot that reverses the last one), and the search runs once more over every heading,
+//! around the prediction and around the last pose.
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
 
@@ -129,11 +130,12 @@ impl LocalTracker {
             }
             if best
                 .is_none_or(|(_, fit)| fit.inlier_fraction < local.full_turn_below_inlier_fraction)
-                && let Ok(found) =
-                    self.full_turn_search
-                        .match_scans(&reference, scan, Pose2::IDENTITY)
             {
-                self.keep_better(&mut best, &points, last_pose * found.reference_from_new);
+                for guess in [motion, Pose2::IDENTITY] {
+                    if let Ok(found) = self.full_turn_search.match_scans(&reference, scan, guess) {
+                        self.keep_better(&mut best, &points, last_pose * found.reference_from_new);
+                    }
+                }
             }
         }
         let (pose, fit) = best.unwrap_or((predicted, SubmapFit::default()));
