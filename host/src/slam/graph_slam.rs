@@ -18,6 +18,8 @@ pub struct SlamStats {
     pub scans: usize,
     /// Scans whose local tracking needed the wide search.
     pub wide_searches: usize,
+    /// Scans whose wide search ran once more over every heading.
+    pub every_heading_searches: usize,
     /// Submaps built.
     pub submaps: usize,
     /// Scan-in-submap searches for loop closure.
@@ -96,6 +98,7 @@ impl GraphSlam {
         let tracked = self.tracker.track(&scan, odometry);
         self.stats.scans += 1;
         self.stats.wide_searches += usize::from(tracked.searched);
+        self.stats.every_heading_searches += usize::from(tracked.searched_every_heading);
         let node = tracked.node;
         let pose_in_map = self.map_from_local * tracked.pose_in_local;
         // Node numbers follow scan order, so the graph's ids equal `node`; adding can only

@@ -3,15 +3,23 @@
 //! The motion since the last scan is predicted from the odometry when there is some, else
 //! taken to be the last motion again (constant velocity). From the prediction, the scan's end
 //! points are aligned by point-to-line ICP ([`super::icp`]) on the older active submap's
-//! points. If too few end points then lie on the submap's surfaces, the prediction was too far
+//! points. How well a pose fits is judged on the scanned surface rather than on the beams
+//! ([`SubmapFit::surface_fraction`]: end points weighted by their range), so that the few
+//! beams on a far wall, which fix the pose along a corridor, are not outvoted by the many on
+//! the walls close by.
+//!
+//! If too little of the surface then lies on the submap's surfaces, the prediction was too far
 //! off for a local alignment: the exact raster matcher searches a wide window against the last
 //! scans, around the prediction and around the last pose, the alignment is run again from
-//! what it found and from the last pose, and the candidate with the most end points on the
-//! submap's surfaces wins. When even that leaves fewer than
-//! [`LocalTrackingOptions::full_turn_below_inlier_fraction`](super::LocalTrackingOptions) of
-//! the end points on the surfaces, the robot turned further than the window reaches (a turn
-//! on the spot that reverses the last one), and the search runs once more over every heading,
-//! around the prediction and around the last pose.
+//! what it found and from the last pose, and the candidate with the highest
+//! [`SubmapFit::tracking_score`] wins (surface on the submap's surfaces, less a part of the
+//! surface on cells it has seen free). When even that leaves less than
+//! [`LocalTrackingOptions::full_turn_below_surface_fraction`](super::LocalTrackingOptions) of
+//! the surface fitting, the robot turned further than the window reaches (a turn on the spot
+//! that reverses the last one, a turn while driving a metre), and the search runs once more
+//! over every heading, around the prediction and around the last pose, against the last scans
+//! and against the whole older submap; a pose from it must bring the fit to that fraction.
+//!
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
 
@@ -33,6 +41,8 @@ pub struct TrackedScan {
     pub fit: SubmapFit,
     /// Whether the wide search ran.
     pub searched: bool,
+    /// Whether the wide search ran once more over every heading.
+    pub searched_every_heading: bool,
     /// A submap this scan finished, to keep for loop closure.
     pub finished_submap: Option<SlamSubmap>,
 }
@@ -105,6 +115,7 @@ impl LocalTracker {
                 pose_in_local: pose,
                 fit: SubmapFit::default(),
                 searched: false,
+                searched_every_heading: false,
                 finished_submap: None,
             };
         };
@@ -113,8 +124,9 @@ impl LocalTracker {
         let predicted = last_pose * motion;
         let mut best = self.align(&points, predicted);
         let mut searched = false;
+        let mut searched_every_heading = false;
         let local = &self.options.local;
-        if best.is_none_or(|(_, fit)| fit.inlier_fraction < local.min_inlier_fraction) {
+        if best.is_none_or(|(_, fit)| fit.surface_fraction < local.min_surface_fraction) {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
             let mut guesses = vec![last_pose];
@@ -126,15 +138,13 @@ impl LocalTracker {
                 }
             }
             for guess in guesses {
-                self.keep_better(&mut best, &points, guess);
+                self.keep_better(&mut best, &points, guess, 0.0);
             }
-            if best
-                .is_none_or(|(_, fit)| fit.inlier_fraction < local.full_turn_below_inlier_fraction)
-            {
-                for guess in [motion, Pose2::IDENTITY] {
-                    if let Ok(found) = self.full_turn_search.match_scans(&reference, scan, guess) {
-                        self.keep_better(&mut best, &points, last_pose * found.reference_from_new);
-                    }
+            let full_turn_floor = local.full_turn_below_surface_fraction;
+            if best.is_none_or(|(_, fit)| fit.surface_fraction < full_turn_floor) {
+                searched_every_heading = true;
+                for guess in self.full_turn_guesses(&reference, scan, last_pose, motion) {
+                    self.keep_better(&mut best, &points, guess, full_turn_floor);
                 }
             }
         }
@@ -146,6 +156,7 @@ impl LocalTracker {
             pose_in_local: pose,
             fit,
             searched,
+            searched_every_heading,
             finished_submap,
         }
     }
@@ -167,19 +178,61 @@ impl LocalTracker {
         Some((submap_in_local * found.map_from_robot, fit))
     }
 
-    /// Aligns `points` from `guess_in_local` and keeps the result in `best` when more of the
-    /// end points lie on the submap's surfaces than with `best`.
+    /// Aligns `points` from `guess_in_local` and keeps the result in `best` when it scores
+    /// higher ([`SubmapFit::tracking_score`]) and leaves at least `min_surface_fraction` of
+    /// the scanned surface on the submap's surfaces.
     fn keep_better(
         &self,
         best: &mut Option<(Pose2, SubmapFit)>,
         points: &[[f64; 2]],
         guess_in_local: Pose2,
+        min_surface_fraction: f64,
     ) {
+        let free_weight = self.options.local.free_weight;
         if let Some(candidate) = self.align(points, guess_in_local)
-            && best.is_none_or(|(_, fit)| candidate.1.inlier_fraction > fit.inlier_fraction)
+            && candidate.1.surface_fraction >= min_surface_fraction
+            && best.is_none_or(|(_, fit)| {
+                candidate.1.tracking_score(free_weight) > fit.tracking_score(free_weight)
+            })
         {
             *best = Some(candidate);
         }
+    }
+
+    /// Poses in the local frame found by the search over every heading, around the predicted
+    /// `motion` and around standing still at `last_pose`: against the last scans
+    /// (`recent_reference`, in the frame of `last_pose`), and against every scan of the older
+    /// active submap, which has seen more of the place.
+    fn full_turn_guesses(
+        &self,
+        recent_reference: &Scan,
+        scan: &Scan,
+        last_pose: Pose2,
+        motion: Pose2,
+    ) -> Vec<Pose2> {
+        let mut guesses = Vec::new();
+        for guess in [motion, Pose2::IDENTITY] {
+            if let Ok(found) = self
+                .full_turn_search
+                .match_scans(recent_reference, scan, guess)
+            {
+                guesses.push(last_pose * found.reference_from_new);
+            }
+        }
+        if let Some(submap) = self.active.first() {
+            let submap_in_local = submap.pose_in_local();
+            let submap_reference = submap.reference_scan();
+            for guess in [motion, Pose2::IDENTITY] {
+                let guess_in_submap = submap_in_local.inverse() * last_pose * guess;
+                if let Ok(found) =
+                    self.full_turn_search
+                        .match_scans(&submap_reference, scan, guess_in_submap)
+                {
+                    guesses.push(submap_in_local * found.reference_from_new);
+                }
+            }
+        }
+        guesses
     }
 
     /// Inserts the scan at `pose` and starts and finishes submaps as due.
@@ -263,7 +316,7 @@ mod tests {
         assert!((found - 32.0).abs() < 0.5, "{found}°");
 
         let mut without = SlamOptions::default();
-        without.local.full_turn_below_inlier_fraction = 0.0;
+        without.local.full_turn_below_surface_fraction = 0.0;
         let lost = tracked_heading_deg(without, &headings_deg);
         assert!((lost - 32.0).abs() > 5.0, "{lost}°");
     }

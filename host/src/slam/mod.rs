@@ -5,8 +5,8 @@
 //! * **Local tracking** ([`LocalTracker`]): each scan is placed in a drift-prone `local` frame
 //!   by matching it against the active occupancy-grid submap. The pose is predicted from the
 //!   odometry when the log has it, else from the last motion; point-to-line ICP ([`icp`])
-//!   aligns the scan's end points on the submap's points ([`PointMap`]), and when too few of
-//!   them fit, a wide search with the exact
+//!   aligns the scan's end points on the submap's points ([`PointMap`]), and when too little
+//!   of the scanned surface fits, a wide search with the exact
 //!   [`FastMatcher`](crate::scan_match::FastMatcher) against the last scans finds the pose
 //!   first. Scans go into two overlapping submaps with log-odds ray insertion; a submap is
 //!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans.
@@ -37,4 +37,4 @@ pub use loop_closer::{LoopCloser, LoopClosure};
 pub use options::{LocalTrackingOptions, LoopClosureOptions, SlamOptions};
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
-pub use slam_submap::SlamSubmap;
+pub use slam_submap::{SlamSubmap, SubmapFit};

@@ -84,12 +84,18 @@ impl Default for SlamOptions {
 pub struct LocalTrackingOptions {
     /// The point-to-line alignment on the submap's points.
     pub icp: IcpOptions,
-    /// An alignment from the prediction that leaves fewer of the scan's end points on the
-    /// submap's surfaces than this triggers the wide search.
-    pub min_inlier_fraction: f64,
-    /// When the wide search still leaves fewer end points than this on the submap's surfaces,
-    /// it runs once more over every heading (a turn larger than its rotation window).
-    pub full_turn_below_inlier_fraction: f64,
+    /// An alignment from the prediction that leaves a smaller share of the scanned surface
+    /// ([`SubmapFit::surface_fraction`](super::SubmapFit)) on the submap's surfaces than this
+    /// triggers the wide search.
+    pub min_surface_fraction: f64,
+    /// When the wide search still leaves a smaller share than this on the submap's surfaces,
+    /// it runs once more over every heading (a turn larger than its rotation window); a pose
+    /// it finds is only taken if it brings the share to this.
+    pub full_turn_below_surface_fraction: f64,
+    /// How much the share of the scanned surface on cells the submap has seen free counts
+    /// against a candidate pose, against the share on its surfaces
+    /// ([`SubmapFit::tracking_score`](super::SubmapFit::tracking_score)).
+    pub free_weight: f64,
     /// Half width of the wide search's translation window, metres.
     pub search_window_m: f64,
     /// Half width of the wide search's rotation window, radians.
@@ -106,8 +112,9 @@ impl Default for LocalTrackingOptions {
     fn default() -> Self {
         LocalTrackingOptions {
             icp: IcpOptions::default(),
-            min_inlier_fraction: 0.8,
-            full_turn_below_inlier_fraction: 0.5,
+            min_surface_fraction: 0.8,
+            full_turn_below_surface_fraction: 0.5,
+            free_weight: 0.5,
             search_window_m: 1.0,
             search_window_rad: 45f64.to_radians(),
             search_resolution_m: 0.1,

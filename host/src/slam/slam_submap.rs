@@ -17,6 +17,20 @@ pub struct SubmapFit {
     pub free_fraction: f64,
     /// Mean occupancy probability at the end points (unknown cells count as 0).
     pub mean_probability: f64,
+    /// [`Self::inlier_fraction`] with each end point weighted by its range: the share of the
+    /// scanned surface rather than of the beams. Beams fan out, so a far wall gets few end
+    /// points, yet it is what fixes the pose along a corridor.
+    pub surface_fraction: f64,
+    /// [`Self::free_fraction`] weighted by range, as [`Self::surface_fraction`].
+    pub free_surface_fraction: f64,
+}
+
+impl SubmapFit {
+    /// How well the scan fits, for choosing between poses: the share of its surface on the
+    /// submap's surfaces, less `free_weight` times the share on cells the submap has seen free.
+    pub fn tracking_score(&self, free_weight: f64) -> f64 {
+        self.surface_fraction - free_weight * self.free_surface_fraction
+    }
 }
 
 /// Cells below this occupancy probability count as seen free.
@@ -100,20 +114,38 @@ impl SlamSubmap {
         }
         let grid = self.submap.grid();
         let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
+        let (mut range_sum_m, mut inlier_range_m, mut free_range_m) = (0.0, 0.0, 0.0);
         for &p in points_in_robot {
+            let range_m = p[0].hypot(p[1]);
+            range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
             let inlier = self.points.nearest_within(point, inlier_m).is_some();
-            inliers += usize::from(inlier);
+            if inlier {
+                inliers += 1;
+                inlier_range_m += range_m;
+            }
             if let Some(probability) = grid.probability_at(point) {
                 probability_sum += f64::from(probability);
-                free += usize::from(!inlier && probability < FREE_PROBABILITY);
+                if !inlier && probability < FREE_PROBABILITY {
+                    free += 1;
+                    free_range_m += range_m;
+                }
             }
         }
         let n = points_in_robot.len() as f64;
+        let surface = |part_m: f64| {
+            if range_sum_m > 0.0 {
+                part_m / range_sum_m
+            } else {
+                0.0
+            }
+        };
         SubmapFit {
             inlier_fraction: inliers as f64 / n,
             free_fraction: free as f64 / n,
             mean_probability: probability_sum / n,
+            surface_fraction: surface(inlier_range_m),
+            free_surface_fraction: surface(free_range_m),
         }
     }
 
@@ -145,5 +177,48 @@ impl SlamSubmap {
     /// Whether insertion has stopped.
     pub fn is_finished(&self) -> bool {
         self.submap.is_finished()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
+    use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn the_surface_fraction_weights_end_points_by_range() {
+        // A corridor 2 m wide along x, closed 10 m ahead.
+        let walls = polygon_walls(&[[-1.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-1.0, 1.0]]);
+        let scan = cast_scan(
+            &walls,
+            Pose2::IDENTITY,
+            -FRAC_PI_2,
+            1f64.to_radians(),
+            181,
+            20.0,
+        );
+        let mut submap = SlamSubmap::new(
+            Pose2::IDENTITY,
+            0,
+            SubmapOptions::default(),
+            PointMapOptions::default(),
+        );
+        // Seen many times, so that the cells the beams pass through count as free.
+        for node in 0..20 {
+            submap.insert(node, &scan, Pose2::IDENTITY);
+        }
+        // One end point on the side wall 1 m away, one 0.5 m short of the end wall.
+        let points = [[0.0, 1.0], [9.5, 0.0]];
+        let fit = submap.fit(&points, Pose2::IDENTITY, 0.1);
+        assert_eq!(fit.inlier_fraction, 0.5);
+        assert!((fit.surface_fraction - 1.0 / 10.5).abs() < 1e-9, "{fit:?}");
+        // The short end point lies where the beams passed through: seen free.
+        assert_eq!(fit.free_fraction, 0.5);
+        assert!(
+            (fit.free_surface_fraction - 9.5 / 10.5).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert!((fit.tracking_score(0.5) - (1.0 - 0.5 * 9.5) / 10.5).abs() < 1e-9);
     }
 }
