@@ -175,6 +175,18 @@ enum Command {
         /// Disable loop closure (local tracking only).
         #[arg(long)]
         no_loop_closure: bool,
+        /// Local tracking: below this share of the scanned surface (end points weighted by
+        /// range) on the submap after alignment, the wide search runs.
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().min_surface_fraction, value_parser = parse_fraction)]
+        min_surface_fraction: f64,
+        /// Local tracking: below this share after the wide search, it runs again over every
+        /// heading, and a pose it finds must bring the share to this.
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().full_turn_below_surface_fraction, value_parser = parse_fraction)]
+        every_heading_below: f64,
+        /// Local tracking: how much the share of the scanned surface on cells the submap has
+        /// seen free counts against a candidate pose (the share on its surfaces counts 1).
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, value_parser = parse_weight)]
+        free_weight: f64,
     },
     /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter and a
     /// single global EKF on the same noisy odometry and tree observations. Prints as its last
@@ -437,6 +449,28 @@ fn parse_sigma(text: &str) -> Result<f64, String> {
     }
 }
 
+/// Parses a weight: a finite number of at least 0.
+fn parse_weight(text: &str) -> Result<f64, String> {
+    let weight: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
+    if weight.is_finite() && weight >= 0.0 {
+        Ok(weight)
+    } else {
+        Err(format!(
+            "{text:?}: a weight must be a finite number of at least 0"
+        ))
+    }
+}
+
+/// Parses a fraction: a number from 0 to 1.
+fn parse_fraction(text: &str) -> Result<f64, String> {
+    let fraction: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
+    if (0.0..=1.0).contains(&fraction) {
+        Ok(fraction)
+    } else {
+        Err(format!("{text:?}: a fraction must lie between 0 and 1"))
+    }
+}
+
 /// Parses `LAT,LON` in degrees into a local frame at sea level.
 fn parse_datum(text: &str) -> Result<host::georef::LocalFrame, String> {
     let (lat, lon) = text
@@ -614,6 +648,9 @@ fn main() -> ExitCode {
             relations,
             reference,
             no_loop_closure,
+            min_surface_fraction,
+            every_heading_below,
+            free_weight,
         } => {
             let beside = |suffix: &str| {
                 let path = log.with_extension(suffix);
@@ -621,6 +658,9 @@ fn main() -> ExitCode {
             };
             let mut slam = host::slam::SlamOptions::default();
             slam.loop_closure.enabled = !no_loop_closure;
+            slam.local.min_surface_fraction = min_surface_fraction;
+            slam.local.full_turn_below_surface_fraction = every_heading_below;
+            slam.local.free_weight = free_weight;
             replay_carmen(hil_sim::slam_replay::SlamReplayOptions {
                 relations: relations.or_else(|| beside("relations")),
                 reference: reference.or_else(|| beside("reference.tsv")),
