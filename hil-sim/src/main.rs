@@ -177,15 +177,15 @@ enum Command {
         no_loop_closure: bool,
         /// Local tracking: below this share of the scanned surface (end points weighted by
         /// range) on the submap after alignment, the wide search runs.
-        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().min_surface_fraction, value_parser = parse_fraction)]
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().min_surface_fraction, allow_hyphen_values = true, value_parser = parse_fraction)]
         min_surface_fraction: f64,
         /// Local tracking: below this share after the wide search, it runs again over every
         /// heading, and a pose it finds must bring the share to this.
-        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().full_turn_below_surface_fraction, value_parser = parse_fraction)]
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().full_turn_below_surface_fraction, allow_hyphen_values = true, value_parser = parse_fraction)]
         every_heading_below: f64,
         /// Local tracking: how much the share of the scanned surface on cells the submap has
         /// seen free counts against a candidate pose (the share on its surfaces counts 1).
-        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, value_parser = parse_weight)]
+        #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, allow_hyphen_values = true, value_parser = parse_weight)]
         free_weight: f64,
     },
     /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter and a
@@ -437,38 +437,37 @@ fn replay_carmen(
     Ok(())
 }
 
-/// Parses a standard deviation: a finite number, at least 0.
-fn parse_sigma(text: &str) -> Result<f64, String> {
-    let sigma: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
-    if sigma.is_finite() && sigma >= 0.0 {
-        Ok(sigma)
+/// Parses a number in `range` (finite); `rule` says what the range is in the error.
+fn parse_in(text: &str, range: std::ops::RangeInclusive<f64>, rule: &str) -> Result<f64, String> {
+    let value: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
+    if value.is_finite() && range.contains(&value) {
+        Ok(value)
     } else {
-        Err(format!(
-            "{text:?}: a standard deviation must be a finite number of at least 0"
-        ))
+        Err(format!("{text:?}: {rule}"))
     }
 }
 
-/// Parses a weight: a finite number of at least 0.
+/// Parses a standard deviation: a finite number, at least 0.
+fn parse_sigma(text: &str) -> Result<f64, String> {
+    parse_in(
+        text,
+        0.0..=f64::INFINITY,
+        "a standard deviation must be a finite number of at least 0",
+    )
+}
+
+/// Parses a weight: a finite number, at least 0.
 fn parse_weight(text: &str) -> Result<f64, String> {
-    let weight: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
-    if weight.is_finite() && weight >= 0.0 {
-        Ok(weight)
-    } else {
-        Err(format!(
-            "{text:?}: a weight must be a finite number of at least 0"
-        ))
-    }
+    parse_in(
+        text,
+        0.0..=f64::INFINITY,
+        "a weight must be a finite number of at least 0",
+    )
 }
 
 /// Parses a fraction: a number from 0 to 1.
 fn parse_fraction(text: &str) -> Result<f64, String> {
-    let fraction: f64 = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
-    if (0.0..=1.0).contains(&fraction) {
-        Ok(fraction)
-    } else {
-        Err(format!("{text:?}: a fraction must lie between 0 and 1"))
-    }
+    parse_in(text, 0.0..=1.0, "a fraction must lie between 0 and 1")
 }
 
 /// Parses `LAT,LON` in degrees into a local frame at sea level.
