@@ -54,12 +54,16 @@ pub struct HistoryMemoryOptions {
 }
 
 impl Default for HistoryMemoryOptions {
-    /// Default place recognition, two consecutive local maps, corrections within 2 m and 5°.
+    /// Default place recognition, two consecutive local maps, corrections within 4 m and 5°.
+    ///
+    /// Right after a loop closed with a large correction the heading can still drift by
+    /// 4–5° per local map, and consecutive corrections then put the centroids 2–4 m apart
+    /// (Victoria Park at 1 436–1 478 s: three revisits in a row missed at 2 m).
     fn default() -> Self {
         HistoryMemoryOptions {
             constellation: ConstellationOptions::default(),
             min_consecutive_matches: 2,
-            consistency_distance_m: 2.0,
+            consistency_distance_m: 4.0,
             consistency_angle_rad: 5f64.to_radians(),
         }
     }
