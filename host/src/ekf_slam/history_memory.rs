@@ -22,8 +22,8 @@
 //!    does not.
 //!
 //! The confirmed [`LoopClosure`] gives the correction and the landmark pairs; the caller
-//! pre-corrects the recent part of the map with the correction (one EKF update linearises a
-//! large correction badly) and then fuses the pairs with equality constraints.
+//! fuses the pairs with equality constraints in the join, and the map's covariance spreads
+//! the correction over the loop.
 //!
 //! Trade-offs: a loop is confirmed one local map late at the earliest (two with the default),
 //! and a revisit shorter than `min_consecutive_matches` local maps is never closed here (the
