@@ -57,6 +57,11 @@ pub struct GlobalMap {
     /// The local map (index into `bases_in_map`) each landmark was first mapped in.
     origin_map: Vec<usize>,
     bases_in_map: Vec<[f64; 3]>,
+    /// A number for each landmark that stays with it while others are fused away, in state
+    /// order; numbers are handed out in join order.
+    ids: Vec<usize>,
+    /// Indexed by number: the landmark it was fused into, itself while it stands.
+    fused_into: Vec<usize>,
 }
 
 impl GlobalMap {
@@ -71,7 +76,36 @@ impl GlobalMap {
             info: Vec::new(),
             origin_map: Vec::new(),
             bases_in_map: vec![pose_in_map],
+            ids: Vec::new(),
+            fused_into: Vec::new(),
         }
+    }
+
+    /// The number the next joined landmark gets: a join numbers the local map's landmarks
+    /// from it in their order ([`GlobalMap::positions_by_id`]).
+    pub fn next_landmark_id(&self) -> usize {
+        self.fused_into.len()
+    }
+
+    /// Where the map now puts each landmark numbered in `ids`, following it through the
+    /// fusions since; `None` for numbers never handed out.
+    pub fn positions_by_id(&self, ids: &[usize]) -> Vec<Option<[f64; 2]>> {
+        let index_of: std::collections::HashMap<usize, usize> = self
+            .ids
+            .iter()
+            .enumerate()
+            .map(|(i, &id)| (id, i))
+            .collect();
+        ids.iter()
+            .map(|&id| {
+                let mut id = id;
+                // Fusions point from a later number to an earlier one, so this ends.
+                while let Some(&into) = self.fused_into.get(id).filter(|&&into| into != id) {
+                    id = into;
+                }
+                index_of.get(&id).map(|&i| self.state.landmark(i))
+            })
+            .collect()
     }
 
     /// The joined state: robot pose (the current base frame), then landmarks.
@@ -203,6 +237,9 @@ impl GlobalMap {
         self.info.extend(local_info);
         self.origin_map
             .extend(std::iter::repeat_n(joined_map, count));
+        let first_id = self.next_landmark_id();
+        self.ids.extend(first_id..first_id + count);
+        self.fused_into.extend(first_id..first_id + count);
         self.bases_in_map.push(self.state.pose());
 
         let mut pairs = self.pair(old_count, options);
@@ -351,6 +388,7 @@ impl GlobalMap {
         for &(new, old) in pairs {
             let record = self.info[new];
             self.info[old].merge(&record);
+            self.fused_into[self.ids[new]] = self.ids[old];
         }
         removed.sort_unstable();
         let keep = |index: usize| removed.binary_search(&index).is_err();
@@ -361,6 +399,10 @@ impl GlobalMap {
         self.origin_map = (0..self.origin_map.len())
             .filter(|&i| keep(i))
             .map(|i| self.origin_map[i])
+            .collect();
+        self.ids = (0..self.ids.len())
+            .filter(|&i| keep(i))
+            .map(|i| self.ids[i])
             .collect();
         Ok(())
     }
@@ -418,6 +460,33 @@ mod tests {
             .join(local_map(shift_m), &options, &recognised)
             .expect("second join");
         (report, global.state().landmark_count())
+    }
+
+    #[test]
+    fn landmark_numbers_follow_their_landmarks_through_a_fusion() {
+        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let options = AssociationOptions {
+            new_landmark_distance2: 0.0,
+            ..AssociationOptions::default()
+        };
+        assert_eq!(global.next_landmark_id(), 0);
+        global
+            .join(local_map([0.0, 0.0]), &options, &[])
+            .expect("first join");
+        assert_eq!(global.next_landmark_id(), 6);
+        let recognised: Vec<(usize, usize)> = (0..TREES.len()).map(|i| (i, i)).collect();
+        global
+            .join(local_map([0.0, 0.0]), &options, &recognised)
+            .expect("second join");
+        assert_eq!(global.next_landmark_id(), 12);
+        assert_eq!(global.state().landmark_count(), 6);
+        let found = global.positions_by_id(&[0, 6, 11, 12]);
+        let tree = global.state().landmark(0);
+        assert_eq!(found[0], Some(tree));
+        // The second local map's first tree was fused into the first one's.
+        assert_eq!(found[1], Some(tree));
+        assert_eq!(found[2], Some(global.state().landmark(5)));
+        assert_eq!(found[3], None);
     }
 
     #[test]

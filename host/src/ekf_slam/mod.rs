@@ -10,6 +10,7 @@
 //! * [`HistoryMemory`]: recognising a revisited place from landmark constellations
 //!   ([`Constellation`]), with evidence over consecutive local maps.
 //! * [`LocalMap`] and [`GlobalMap`]: local maps and map joining (Tardós et al. 2002).
+//! * [`LocalMapAnchors`]: each finished local map's base, fitted again to the final map.
 //! * [`SubmapSlam`]: the pipeline.
 //! * [`GpsAnchor`]: GPS fixes align the map to the GPS frame, then update the filter.
 
@@ -25,6 +26,7 @@ pub mod history_memory;
 pub mod jcbb;
 pub mod landmark_info;
 pub mod local_map;
+pub mod local_map_anchors;
 pub mod motion_model;
 pub mod options;
 pub mod range_bearing;
@@ -41,6 +43,7 @@ pub use history_memory::{HistoryMemory, HistoryMemoryOptions, LoopClosure};
 pub use jcbb::{JcbbOptions, jcbb};
 pub use landmark_info::LandmarkInfo;
 pub use local_map::{LocalMap, ObservationReport};
+pub use local_map_anchors::LocalMapAnchors;
 pub use motion_model::{MotionModel, MotionPrediction};
 pub use options::{AssociationOptions, SubmapSlamOptions};
 pub use range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};

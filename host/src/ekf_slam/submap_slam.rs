@@ -18,6 +18,7 @@ use super::global_map::{GlobalMap, JoinReport};
 use super::history_memory::HistoryMemory;
 use super::landmark_info::LandmarkInfo;
 use super::local_map::{LocalMap, ObservationReport};
+use super::local_map_anchors::LocalMapAnchors;
 use super::motion_model::MotionModel;
 use super::options::SubmapSlamOptions;
 use super::range_bearing::{LandmarkObservation, RangeBearingModel};
@@ -65,6 +66,7 @@ pub struct SubmapSlam<M: MotionModel> {
     global: GlobalMap,
     local: LocalMap,
     history: Option<HistoryMemory>,
+    anchors: LocalMapAnchors,
     stats: SubmapSlamStats,
 }
 
@@ -81,6 +83,7 @@ impl<M: MotionModel> SubmapSlam<M> {
             global: GlobalMap::new(start_in_map, Matrix3::zeros()),
             local: LocalMap::new(robot, covariance),
             history: options.history.map(HistoryMemory::new),
+            anchors: LocalMapAnchors::default(),
             motion,
             sensor,
             options,
@@ -185,6 +188,11 @@ impl<M: MotionModel> SubmapSlam<M> {
         let mut local = self.local.clone();
         local.prune(self.options.min_observations);
         let recognised = self.recognise_place(&local);
+        let landmarks_in_base = (0..local.landmark_count())
+            .map(|i| local.state().landmark(i))
+            .collect();
+        self.anchors
+            .record(self.global.next_landmark_id(), landmarks_in_base);
         let report = match self
             .global
             .join(local, &self.options.join_association, &recognised)
@@ -260,6 +268,33 @@ impl<M: MotionModel> SubmapSlam<M> {
         (pose, covariance)
     }
 
+    /// The number of the local map being built (0 for the first): the index of its base in
+    /// [`SubmapSlam::local_map_bases_in_map`] once it is closed.
+    pub fn local_map_number(&self) -> usize {
+        self.anchors.len()
+    }
+
+    /// The robot's pose in the base frame of the local map being built.
+    pub fn robot_pose_in_local_map(&self) -> [f64; 3] {
+        self.local.state().pose()
+    }
+
+    /// The base of every closed local map, fitted to where the map now puts its landmarks
+    /// ([`LocalMapAnchors`]): a pose recorded in local map `k`'s frame lies at
+    /// `bases[k] ⊕ pose` in the map as it stands now. `None` for local maps with too few
+    /// landmarks left.
+    pub fn local_map_bases_in_map(&self) -> Vec<Option<[f64; 3]>> {
+        self.anchors.bases_in_map(&self.global)
+    }
+
+    /// Closes the local map being built if it holds landmarks (or if none was closed yet), as
+    /// at the end of a run; a new, empty one starts.
+    pub fn close_last_local_map(&mut self) {
+        if self.local.landmark_count() > 0 || self.stats.joins == 0 {
+            self.close_local_map();
+        }
+    }
+
     /// The robot block of the local map (pose in the base frame, then the model's entries).
     pub fn robot_in_local_map(&self) -> DVector<f64> {
         self.local.state().robot()
@@ -295,9 +330,7 @@ impl<M: MotionModel> SubmapSlam<M> {
 
     /// Closes the last local map and returns the global map.
     pub fn finish(mut self) -> (GlobalMap, SubmapSlamStats) {
-        if self.local.landmark_count() > 0 || self.stats.joins == 0 {
-            self.close_local_map();
-        }
+        self.close_last_local_map();
         (self.global, self.stats)
     }
 }

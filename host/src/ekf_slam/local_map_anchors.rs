@@ -1,0 +1,131 @@
+//! Where each finished local map lies in the final map.
+//!
+//! A local map's landmarks are kept in its own base frame, numbered as the global map numbers
+//! them when it is joined ([`GlobalMap::next_landmark_id`]). At the end of a run each base is
+//! fitted again (least squares, rigid) to where the map finally put those landmarks, after
+//! every later fusion and closed loop. A pose recorded in a local map's base frame, composed
+//! with that fitted base, follows those corrections; the filter's estimate at the time does
+//! not, so a stretch driven before a loop closed keeps the drift it had then.
+//!
+//! Trade-off: the fitted base is only as good as the local map's landmarks; a local map with
+//! fewer than [`LocalMapAnchors::MIN_LANDMARKS`] of them left in the map has none.
+
+use super::constellation::fit_rigid;
+use super::global_map::GlobalMap;
+
+/// The landmarks of one finished local map.
+#[derive(Debug, Clone, PartialEq)]
+struct Anchors {
+    /// Number of the first landmark; the others follow in order.
+    first_id: usize,
+    landmarks_in_base: Vec<[f64; 2]>,
+}
+
+/// The landmarks of every finished local map, in its base frame. See the
+/// [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LocalMapAnchors {
+    maps: Vec<Anchors>,
+}
+
+impl LocalMapAnchors {
+    /// Fewest landmarks a fitted base stands on.
+    pub const MIN_LANDMARKS: usize = 3;
+
+    /// Records the next local map: `landmarks_in_base` as joined, numbered from `first_id`.
+    pub fn record(&mut self, first_id: usize, landmarks_in_base: Vec<[f64; 2]>) {
+        self.maps.push(Anchors {
+            first_id,
+            landmarks_in_base,
+        });
+    }
+
+    /// Local maps recorded.
+    pub fn len(&self) -> usize {
+        self.maps.len()
+    }
+
+    /// True when none was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.maps.is_empty()
+    }
+
+    /// The base of every recorded local map (`map_from_base`) fitted to where `global` now
+    /// puts its landmarks; `None` for those with too few left.
+    pub fn bases_in_map(&self, global: &GlobalMap) -> Vec<Option<[f64; 3]>> {
+        self.maps
+            .iter()
+            .map(|anchors| {
+                let ids: Vec<usize> = (0..anchors.landmarks_in_base.len())
+                    .map(|i| anchors.first_id + i)
+                    .collect();
+                let (from, to): (Vec<[f64; 2]>, Vec<[f64; 2]>) = anchors
+                    .landmarks_in_base
+                    .iter()
+                    .zip(global.positions_by_id(&ids))
+                    .filter_map(|(&in_base, in_map)| in_map.map(|in_map| (in_base, in_map)))
+                    .unzip();
+                if from.len() < Self::MIN_LANDMARKS {
+                    return None;
+                }
+                fit_rigid(&from, &to)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector, Matrix3};
+
+    use super::*;
+    use crate::ekf_slam::{AssociationOptions, LandmarkObservation, LocalMap, RangeBearingModel};
+
+    /// A local map at the origin of its base that saw `trees`.
+    fn local_map(trees: &[[f64; 2]]) -> LocalMap {
+        let observations: Vec<LandmarkObservation> = trees
+            .iter()
+            .map(|&[x, y]| LandmarkObservation {
+                range_m: x.hypot(y),
+                bearing_rad: y.atan2(x),
+                diameter_m: Some(0.3),
+            })
+            .collect();
+        let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        local
+            .observe(
+                &observations,
+                &RangeBearingModel::default(),
+                &AssociationOptions::default(),
+            )
+            .expect("first observations");
+        local
+    }
+
+    #[test]
+    fn a_base_follows_its_landmarks_when_the_map_moves() {
+        let trees = [[8.0, 3.0], [12.0, -4.0], [15.0, 6.0], [20.0, -1.0]];
+        let local = local_map(&trees);
+        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let mut anchors = LocalMapAnchors::default();
+        let in_base = (0..local.landmark_count())
+            .map(|i| local.state().landmark(i))
+            .collect();
+        anchors.record(global.next_landmark_id(), in_base);
+        global
+            .join(local, &AssociationOptions::default(), &[])
+            .expect("join");
+        // A local map of two trees has no base to fit.
+        anchors.record(global.next_landmark_id(), vec![[1.0, 0.0], [2.0, 0.0]]);
+
+        let moved = [3.0, -2.0, 0.4];
+        global.transform(moved);
+        let bases = anchors.bases_in_map(&global);
+        assert_eq!(bases.len(), 2);
+        let base = bases[0].expect("four landmarks fit a base");
+        for (found, expected) in base.iter().zip(moved) {
+            assert!((found - expected).abs() < 1e-9, "{base:?}");
+        }
+        assert_eq!(bases[1], None);
+    }
+}
