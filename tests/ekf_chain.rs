@@ -58,6 +58,10 @@ fn victoria_park_without_gps_follows_the_gps_track() {
     let (lines, fields) = first_pose(&out);
     assert_eq!(lines, summary.scans);
     assert_eq!(fields.len(), 4, "t_s x_m y_m theta_rad");
+    // Every local map keeps enough trees to place its stretch in the final map.
+    assert_eq!(summary.poses_not_rebased, 0, "{summary:?}");
+    let online = fs::read_to_string(out.join("online_trajectory.tsv")).expect("written");
+    assert_eq!(online.lines().count(), summary.scans);
     let landmarks = fs::read_to_string(out.join("landmarks.tsv")).expect("landmarks written");
     assert_eq!(
         landmarks.lines().count(),

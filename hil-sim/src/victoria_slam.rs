@@ -14,7 +14,12 @@
 //!
 //! Outputs in the output directory:
 //!
-//! * `trajectory.tsv`: `t_s x_m y_m theta_rad` of the laser after each scan;
+//! * `trajectory.tsv`: `t_s x_m y_m theta_rad` of the laser at each scan, in the final map:
+//!   each pose as the filter had it in its local map, composed with that local map's base
+//!   fitted at the end to where the final map puts its landmarks
+//!   ([`host::ekf_slam::LocalMapAnchors`]), so stretches driven before a loop closed carry
+//!   the closure's correction;
+//! * `online_trajectory.tsv`: the same poses as the filter estimated them at the time;
 //! * `landmarks.tsv`: `x_m y_m diameter_m observations sigma_x_m sigma_y_m`;
 //! * `summary.json`: `wall_s`, `steps`, `landmarks`, `local_maps`, `loop_closures`, the RMS
 //!   position error against `gps.dat` and the step times against the size of the map.
@@ -158,8 +163,8 @@ pub struct VictoriaSlamSummary {
     pub gps_rejected: usize,
     /// GPS fixes the error is measured on (those after the first filter pose).
     pub gps_compared: usize,
-    /// RMS distance between the trajectory and the GPS fixes, metres: directly when GPS was
-    /// fused, after the best rigid alignment when not.
+    /// RMS distance between the trajectory (`trajectory.tsv`, in the final map) and the GPS
+    /// fixes, metres: directly when GPS was fused, after the best rigid alignment when not.
     pub rms_to_gps_m: f64,
     /// Median of the same distances, metres.
     pub median_to_gps_m: f64,
@@ -168,6 +173,15 @@ pub struct VictoriaSlamSummary {
     pub gps_jumps: usize,
     /// RMS distance as `rms_to_gps_m`, over the fixes that are not jumps, metres.
     pub rms_to_gps_without_jumps_m: f64,
+    /// `rms_to_gps_m` of the online trajectory (each pose as estimated at its scan).
+    pub online_rms_to_gps_m: f64,
+    /// `median_to_gps_m` of the online trajectory.
+    pub online_median_to_gps_m: f64,
+    /// `rms_to_gps_without_jumps_m` of the online trajectory.
+    pub online_rms_to_gps_without_jumps_m: f64,
+    /// Scans whose pose in `trajectory.tsv` is the online one: their local map kept fewer
+    /// than three landmarks to fit its base to.
+    pub poses_not_rebased: usize,
     /// Final speed scale and steering offset (radians) of the online calibration.
     pub calibration: Option<[f64; 2]>,
     /// The filter's counters.
@@ -263,7 +277,12 @@ pub fn replay_victoria(
 
 /// What a run produced.
 struct FilterRun {
+    /// In the final map ([`final_trajectory`]).
     trajectory: Vec<StampedPose>,
+    /// As estimated at each scan.
+    online_trajectory: Vec<StampedPose>,
+    /// Poses of `online_trajectory` that kept their online estimate in `trajectory`.
+    not_rebased: usize,
     slam: SubmapSlam<AckermannModel>,
     wall_s: f64,
     steps: usize,
@@ -310,6 +329,8 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
     let started = Instant::now();
     let mut slam = SubmapSlam::new(options.motion, options.sensor, options.slam, [0.0; 3]);
     let mut trajectory = Vec::with_capacity(park.scans.len());
+    // Local map number and the laser's pose in that local map, per scan.
+    let mut in_local_maps = Vec::with_capacity(park.scans.len());
     let mut step_times = Vec::with_capacity(park.scans.len());
     let mut input = AckermannInput::default();
     let mut last_t_s = events.first().map_or(0.0, |e| e.0);
@@ -352,6 +373,12 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
                     t_s,
                     pose: laser_pose(&slam, &options.sensor),
                 });
+                let in_local_map = compose_pose(
+                    slam.robot_pose_in_local_map(),
+                    options.sensor.sensor_in_robot,
+                )
+                .0;
+                in_local_maps.push((slam.local_map_number(), in_local_map));
             }
             Event::Gps(i) => {
                 let fix = park.gps[i];
@@ -369,9 +396,14 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
             }
         }
     }
+    slam.close_last_local_map();
+    let bases = slam.local_map_bases_in_map();
+    let (final_poses, not_rebased) = final_trajectory(&trajectory, &in_local_maps, &bases);
     let wall_s = started.elapsed().as_secs_f64();
     FilterRun {
-        trajectory,
+        trajectory: final_poses,
+        online_trajectory: trajectory,
+        not_rebased,
         slam,
         wall_s,
         steps: events.len(),
@@ -379,6 +411,35 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         gps_rejected: anchor.rejected,
         step_times,
     }
+}
+
+/// Each pose of `online` (the filter's estimate at the time) re-expressed in the final map:
+/// its pose in its local map (`in_local_maps[i]`: local map number, pose) composed with the
+/// base `bases` gives for that local map. Poses whose local map has no base keep their
+/// online estimate; their number is returned with the trajectory.
+fn final_trajectory(
+    online: &[StampedPose],
+    in_local_maps: &[(usize, [f64; 3])],
+    bases: &[Option<[f64; 3]>],
+) -> (Vec<StampedPose>, usize) {
+    let mut kept = 0;
+    let poses = online
+        .iter()
+        .zip(in_local_maps)
+        .map(|(stamped, &(local_map, pose_in_local_map))| {
+            match bases.get(local_map).copied().flatten() {
+                Some(base) => StampedPose {
+                    t_s: stamped.t_s,
+                    pose: compose_pose(base, pose_in_local_map).0,
+                },
+                None => {
+                    kept += 1;
+                    *stamped
+                }
+            }
+        })
+        .collect();
+    (poses, kept)
 }
 
 /// The laser's pose in the map frame.
@@ -515,14 +576,19 @@ fn write_outputs(
     let (global, stats) = slam.finish();
     let state = global.state();
 
-    let path = options.out.join("trajectory.tsv");
-    let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
-    for stamped in &run.trajectory {
-        let [x, y, theta] = stamped.pose;
-        writeln!(out, "{:.3}\t{x:.4}\t{y:.4}\t{theta:.6}", stamped.t_s)
-            .map_err(write_error(&path))?;
+    for (name, trajectory) in [
+        ("trajectory.tsv", &run.trajectory),
+        ("online_trajectory.tsv", &run.online_trajectory),
+    ] {
+        let path = options.out.join(name);
+        let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
+        for stamped in trajectory {
+            let [x, y, theta] = stamped.pose;
+            writeln!(out, "{:.3}\t{x:.4}\t{y:.4}\t{theta:.6}", stamped.t_s)
+                .map_err(write_error(&path))?;
+        }
+        out.flush().map_err(write_error(&path))?;
     }
-    out.flush().map_err(write_error(&path))?;
 
     let path = options.out.join("landmarks.tsv");
     let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
@@ -582,6 +648,10 @@ fn write_outputs(
         .collect();
     let (_, rms_to_gps_without_jumps_m, _) =
         error_to_gps(&run.trajectory, &steady, !options.use_gps);
+    let (_, online_rms_to_gps_m, online_median_to_gps_m) =
+        error_to_gps(&run.online_trajectory, &park.gps, !options.use_gps);
+    let (_, online_rms_to_gps_without_jumps_m, _) =
+        error_to_gps(&run.online_trajectory, &steady, !options.use_gps);
     let summary = VictoriaSlamSummary {
         wall_s: run.wall_s,
         steps: run.steps,
@@ -597,6 +667,10 @@ fn write_outputs(
         median_to_gps_m,
         gps_jumps: jumps.iter().filter(|&&jump| jump).count(),
         rms_to_gps_without_jumps_m,
+        online_rms_to_gps_m,
+        online_median_to_gps_m,
+        online_rms_to_gps_without_jumps_m,
+        poses_not_rebased: run.not_rebased,
         calibration,
         filter: stats.into(),
         step_time_by_map_size: step_time_classes(&run.step_times),
