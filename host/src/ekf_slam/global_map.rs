@@ -411,7 +411,7 @@ impl GlobalMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ekf_slam::range_bearing::{LandmarkObservation, RangeBearingModel};
+    use crate::ekf_slam::local_map::seen_once;
 
     const TREES: [[f64; 2]; 6] = [
         [8.0, 3.0],
@@ -424,23 +424,8 @@ mod tests {
 
     /// A local map at the origin of its base that saw `trees` shifted by `shift_m`.
     fn local_map(shift_m: [f64; 2]) -> LocalMap {
-        let sensor = RangeBearingModel::default();
-        let observations: Vec<LandmarkObservation> = TREES
-            .iter()
-            .map(|tree| {
-                let (x, y) = (tree[0] + shift_m[0], tree[1] + shift_m[1]);
-                LandmarkObservation {
-                    range_m: x.hypot(y),
-                    bearing_rad: y.atan2(x),
-                    diameter_m: Some(0.3),
-                }
-            })
-            .collect();
-        let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
-        local
-            .observe(&observations, &sensor, &AssociationOptions::default())
-            .expect("first observations");
-        local
+        let shifted = TREES.map(|[x, y]| [x + shift_m[0], y + shift_m[1]]);
+        seen_once(&shifted)
     }
 
     /// A global map holding the trees, and the join of a second local map that saw them

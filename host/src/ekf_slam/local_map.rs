@@ -410,3 +410,26 @@ impl LocalMap {
         }
     }
 }
+
+/// A local map at the origin of its base that has seen `trees` (positions in the base frame,
+/// 0.3 m trunks) once, without noise: test set-up for the join.
+#[cfg(test)]
+pub(crate) fn seen_once(trees: &[[f64; 2]]) -> LocalMap {
+    let observations: Vec<LandmarkObservation> = trees
+        .iter()
+        .map(|&[x, y]| LandmarkObservation {
+            range_m: x.hypot(y),
+            bearing_rad: y.atan2(x),
+            diameter_m: Some(0.3),
+        })
+        .collect();
+    let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+    local
+        .observe(
+            &observations,
+            &RangeBearingModel::default(),
+            &AssociationOptions::default(),
+        )
+        .expect("first observations");
+    local
+}

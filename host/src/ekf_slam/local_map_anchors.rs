@@ -76,36 +76,16 @@ impl LocalMapAnchors {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{DMatrix, DVector, Matrix3};
+    use nalgebra::Matrix3;
 
     use super::*;
-    use crate::ekf_slam::{AssociationOptions, LandmarkObservation, LocalMap, RangeBearingModel};
-
-    /// A local map at the origin of its base that saw `trees`.
-    fn local_map(trees: &[[f64; 2]]) -> LocalMap {
-        let observations: Vec<LandmarkObservation> = trees
-            .iter()
-            .map(|&[x, y]| LandmarkObservation {
-                range_m: x.hypot(y),
-                bearing_rad: y.atan2(x),
-                diameter_m: Some(0.3),
-            })
-            .collect();
-        let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
-        local
-            .observe(
-                &observations,
-                &RangeBearingModel::default(),
-                &AssociationOptions::default(),
-            )
-            .expect("first observations");
-        local
-    }
+    use crate::ekf_slam::AssociationOptions;
+    use crate::ekf_slam::local_map::seen_once;
 
     #[test]
     fn a_base_follows_its_landmarks_when_the_map_moves() {
         let trees = [[8.0, 3.0], [12.0, -4.0], [15.0, 6.0], [20.0, -1.0]];
-        let local = local_map(&trees);
+        let local = seen_once(&trees);
         let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
         let mut anchors = LocalMapAnchors::default();
         let in_base = (0..local.landmark_count())
