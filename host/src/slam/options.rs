@@ -165,7 +165,7 @@ impl Default for LoopClosureOptions {
         LoopClosureOptions {
             enabled: true,
             every_n_scans: 5,
-            search_window_m: 2.0,
+            search_window_m: 3.0,
             search_window_rad: 30f64.to_radians(),
             search_resolution_m: 0.1,
             search_rotation_step_rad: 1f64.to_radians(),
