@@ -58,7 +58,8 @@ pub struct GlobalMap {
     origin_map: Vec<usize>,
     bases_in_map: Vec<[f64; 3]>,
     /// A number for each landmark that stays with it while others are fused away, in state
-    /// order; numbers are handed out in join order.
+    /// order. Numbers are handed out in join order and fusions only remove entries, so they
+    /// ascend.
     ids: Vec<usize>,
     /// Indexed by number: the landmark it was fused into, itself while it stands.
     fused_into: Vec<usize>,
@@ -90,12 +91,6 @@ impl GlobalMap {
     /// Where the map now puts each landmark numbered in `ids`, following it through the
     /// fusions since; `None` for numbers never handed out.
     pub fn positions_by_id(&self, ids: &[usize]) -> Vec<Option<[f64; 2]>> {
-        let index_of: std::collections::HashMap<usize, usize> = self
-            .ids
-            .iter()
-            .enumerate()
-            .map(|(i, &id)| (id, i))
-            .collect();
         ids.iter()
             .map(|&id| {
                 let mut id = id;
@@ -103,7 +98,8 @@ impl GlobalMap {
                 while let Some(&into) = self.fused_into.get(id).filter(|&&into| into != id) {
                     id = into;
                 }
-                index_of.get(&id).map(|&i| self.state.landmark(i))
+                let index = self.ids.binary_search(&id).ok()?;
+                Some(self.state.landmark(index))
             })
             .collect()
     }
