@@ -48,6 +48,18 @@ pub fn cast_scan(
     Scan::from_ranges(&ranges_m, start_angle_rad, angle_step_rad, max_range_m)
 }
 
+/// [`cast_scan`] in the usual LMS2xx layout: 181 beams 1° apart from −90° to +90°, 20 m range.
+pub fn cast_front_scan(walls: &[WallInMap], pose: Pose2) -> Scan {
+    cast_scan(
+        walls,
+        pose,
+        -std::f64::consts::FRAC_PI_2,
+        1f64.to_radians(),
+        181,
+        20.0,
+    )
+}
+
 /// Distance along the unit ray `origin + t * direction` to `wall`, if the ray meets it ahead.
 fn ray_hits_wall_m(origin: [f64; 2], direction: [f64; 2], wall: &WallInMap) -> Option<f64> {
     let [a, b] = *wall;

@@ -231,7 +231,7 @@ impl GraphSlam {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::synthetic::{WallInMap, cast_scan, polygon_walls};
+    use crate::scan_match::synthetic::{WallInMap, cast_front_scan, polygon_walls};
     use std::f64::consts::{FRAC_PI_2, TAU};
 
     /// A ring corridor around a block, with alcoves and pillars that break its symmetry.
@@ -278,7 +278,7 @@ mod tests {
         let truth = ring_trajectory(1.3);
         let scans: Vec<Scan> = truth
             .iter()
-            .map(|&pose| cast_scan(&walls, pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0))
+            .map(|&pose| cast_front_scan(&walls, pose))
             .collect();
         let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
         for scan in &scans {
@@ -305,7 +305,7 @@ mod tests {
         let truth = ring_trajectory(0.3);
         let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
         for pose in &truth {
-            let scan = cast_scan(&walls, *pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0);
+            let scan = cast_front_scan(&walls, *pose);
             slam.add_scan(&scan, Some(*pose));
         }
         let result = slam.finish();

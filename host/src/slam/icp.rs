@@ -149,8 +149,7 @@ fn gauss_newton_step(
 mod tests {
     use super::super::point_map::{PointMapOptions, points_with_normals};
     use super::*;
-    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
-    use std::f64::consts::FRAC_PI_2;
+    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
 
     #[test]
     fn recovers_an_offset_pose_in_a_room() {
@@ -162,15 +161,8 @@ mod tests {
             [-4.0, 4.0],
         ]);
         let truth = Pose2::new(0.4, -0.3, 0.25);
-        let reference = cast_scan(
-            &walls,
-            Pose2::IDENTITY,
-            -FRAC_PI_2,
-            1f64.to_radians(),
-            181,
-            20.0,
-        );
-        let scan = cast_scan(&walls, truth, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0);
+        let reference = cast_front_scan(&walls, Pose2::IDENTITY);
+        let scan = cast_front_scan(&walls, truth);
         let mut map = PointMap::new(PointMapOptions::default());
         map.insert_scan(&reference, Pose2::IDENTITY);
         let points: Vec<[f64; 2]> = points_with_normals(&scan, &PointMapOptions::default())

@@ -281,8 +281,7 @@ impl LocalTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
-    use std::f64::consts::FRAC_PI_2;
+    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
 
     /// An irregular room, so that no turn maps it onto itself.
     fn room_scan(pose: Pose2) -> Scan {
@@ -294,7 +293,7 @@ mod tests {
             [-2.0, 4.0],
             [-4.0, 1.0],
         ]);
-        cast_scan(&walls, pose, -FRAC_PI_2, 1f64.to_radians(), 181, 20.0)
+        cast_front_scan(&walls, pose)
     }
 
     fn tracked_heading_deg(options: SlamOptions, headings_deg: &[f64]) -> f64 {

@@ -183,21 +183,13 @@ impl SlamSubmap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::synthetic::{cast_scan, polygon_walls};
-    use std::f64::consts::FRAC_PI_2;
+    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
 
     #[test]
     fn the_surface_fraction_weights_end_points_by_range() {
         // A corridor 2 m wide along x, closed 10 m ahead.
         let walls = polygon_walls(&[[-1.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-1.0, 1.0]]);
-        let scan = cast_scan(
-            &walls,
-            Pose2::IDENTITY,
-            -FRAC_PI_2,
-            1f64.to_radians(),
-            181,
-            20.0,
-        );
+        let scan = cast_front_scan(&walls, Pose2::IDENTITY);
         let mut submap = SlamSubmap::new(
             Pose2::IDENTITY,
             0,
