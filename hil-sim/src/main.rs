@@ -224,8 +224,10 @@ enum Command {
     /// EKF SLAM with local maps over the Victoria Park run (tree detections, car odometry,
     /// GPS), measured against its GPS.
     ///
-    /// Writes OUT/trajectory.tsv (`t_s x_m y_m theta_rad` after each scan; with GPS fused,
-    /// in the frame of gps.dat), OUT/landmarks.tsv and OUT/summary.json (`wall_s`, `steps`,
+    /// Writes OUT/trajectory.tsv (`t_s x_m y_m theta_rad` of the laser at each scan, estimated
+    /// again against the finished map, forwards and backwards; with GPS fused, in the frame
+    /// of gps.dat), OUT/online_trajectory.tsv (the filter's estimate at each scan),
+    /// OUT/landmarks.tsv and OUT/summary.json (`wall_s`, `steps`,
     /// `landmarks`, `local_maps`, `loop_closures`, `rms_to_gps_m`: directly with GPS fused,
     /// after the best rigid alignment with `--no-gps`; `rms_to_gps_without_jumps_m`: the same
     /// without the receiver's jumps; and step times by map size).

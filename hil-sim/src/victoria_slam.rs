@@ -14,11 +14,11 @@
 //!
 //! Outputs in the output directory:
 //!
-//! * `trajectory.tsv`: `t_s x_m y_m theta_rad` of the laser at each scan, in the final map:
-//!   each pose as the filter had it in its local map, composed with that local map's base
-//!   fitted at the end to where the final map puts its landmarks
-//!   ([`host::ekf_slam::LocalMapAnchors`]), so stretches driven before a loop closed carry
-//!   the closure's correction;
+//! * `trajectory.tsv`: `t_s x_m y_m theta_rad` of the laser at each scan, estimated again
+//!   once the map is finished: the run's inputs replayed against the final map's trees (and
+//!   the fixes), forwards and then backwards ([`host::ekf_slam::MapSmoother`]), so stretches
+//!   driven before a loop closed carry the closure's correction and the end of a GPS outage
+//!   is bridged from both sides;
 //! * `online_trajectory.tsv`: the same poses as the filter estimated them at the time;
 //! * `landmarks.tsv`: `x_m y_m diameter_m observations sigma_x_m sigma_y_m`;
 //! * `summary.json`: `wall_s`, `steps`, `landmarks`, `local_maps`, `loop_closures`, the RMS
@@ -32,13 +32,14 @@ use std::time::Instant;
 use host::ekf_slam::frames::compose_pose;
 use host::ekf_slam::{
     AckermannGeometry, AckermannInput, AckermannModel, GpsAnchor, GpsAnchorOptions, GpsOutcome,
-    LandmarkObservation, RangeBearingModel, SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
+    LandmarkObservation, MapSmoother, MapSmootherOptions, MapSmootherStats, RangeBearingModel,
+    SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
 };
 use host::georef::{
     AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
     write_geojson, write_kml,
 };
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Matrix3};
 use serde::Serialize;
 
 use crate::replay::LogError;
@@ -143,7 +144,8 @@ pub struct StepTimeClass {
 /// `summary.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct VictoriaSlamSummary {
-    /// Seconds the filter took (not reading the files or writing the outputs).
+    /// Seconds the filter and the smoothing pass took (not reading the files or writing the
+    /// outputs).
     pub wall_s: f64,
     /// Events processed: drive inputs, scans and GPS fixes.
     pub steps: usize,
@@ -163,7 +165,7 @@ pub struct VictoriaSlamSummary {
     pub gps_rejected: usize,
     /// GPS fixes the error is measured on (those after the first filter pose).
     pub gps_compared: usize,
-    /// RMS distance between the trajectory (`trajectory.tsv`, in the final map) and the GPS
+    /// RMS distance between the trajectory (`trajectory.tsv`, smoothed) and the GPS
     /// fixes, metres: directly when GPS was fused, after the best rigid alignment when not.
     pub rms_to_gps_m: f64,
     /// Median of the same distances, metres.
@@ -179,9 +181,14 @@ pub struct VictoriaSlamSummary {
     pub online_median_to_gps_m: f64,
     /// `rms_to_gps_without_jumps_m` of the online trajectory.
     pub online_rms_to_gps_without_jumps_m: f64,
-    /// Scans whose pose in `trajectory.tsv` is the online one: their local map kept fewer
-    /// than three landmarks to fit its base to.
-    pub poses_not_rebased: usize,
+    /// Of `wall_s`, the seconds the smoothing pass took ([`MapSmoother`]).
+    pub smoothing_s: f64,
+    /// Observations the smoothing pass paired with a tree of the final map.
+    pub smoother_paired: usize,
+    /// Observations it left out: no tree of the map within the gate, or more than one.
+    pub smoother_unpaired: usize,
+    /// GPS fixes it used.
+    pub smoother_fixes_used: usize,
     /// Final speed scale and steering offset (radians) of the online calibration.
     pub calibration: Option<[f64; 2]>,
     /// The filter's counters.
@@ -277,14 +284,14 @@ pub fn replay_victoria(
 
 /// What a run produced.
 struct FilterRun {
-    /// In the final map ([`final_trajectory`]).
+    /// Against the final map, smoothed ([`smoothed_trajectory`]).
     trajectory: Vec<StampedPose>,
     /// As estimated at each scan.
     online_trajectory: Vec<StampedPose>,
-    /// Poses of `online_trajectory` that kept their online estimate in `trajectory`.
-    not_rebased: usize,
+    smoother: MapSmootherStats,
     slam: SubmapSlam<AckermannModel>,
     wall_s: f64,
+    smoothing_s: f64,
     steps: usize,
     gps_fused: usize,
     gps_rejected: usize,
@@ -329,8 +336,6 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
     let started = Instant::now();
     let mut slam = SubmapSlam::new(options.motion, options.sensor, options.slam, [0.0; 3]);
     let mut trajectory = Vec::with_capacity(park.scans.len());
-    // Local map number and the laser's pose in that local map, per scan.
-    let mut in_local_maps = Vec::with_capacity(park.scans.len());
     let mut step_times = Vec::with_capacity(park.scans.len());
     let mut input = AckermannInput::default();
     let mut last_t_s = events.first().map_or(0.0, |e| e.0);
@@ -353,17 +358,7 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
                 };
             }
             Event::Scan(i) => {
-                let observations: Vec<LandmarkObservation> = park.scans[i]
-                    .detections
-                    .iter()
-                    .filter(|d| d.range_m <= options.max_range_m && d.range_m > 0.0)
-                    .map(|d| LandmarkObservation {
-                        range_m: d.range_m,
-                        // The file's bearings run 0..π with π/2 straight ahead.
-                        bearing_rad: d.bearing_rad - std::f64::consts::FRAC_PI_2,
-                        diameter_m: Some(d.diameter_m),
-                    })
-                    .collect();
+                let observations = scan_observations(park, i, options);
                 let landmarks = slam.global_landmark_count();
                 let joins = slam.stats().joins;
                 slam.observe(&observations);
@@ -373,12 +368,6 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
                     t_s,
                     pose: laser_pose(&slam, &options.sensor),
                 });
-                let in_local_map = compose_pose(
-                    slam.robot_pose_in_local_map(),
-                    options.sensor.sensor_in_robot,
-                )
-                .0;
-                in_local_maps.push((slam.local_map_number(), in_local_map));
             }
             Event::Gps(i) => {
                 let fix = park.gps[i];
@@ -397,15 +386,17 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         }
     }
     slam.close_last_local_map();
-    let bases = slam.local_map_bases_in_map();
-    let (final_poses, not_rebased) = final_trajectory(&trajectory, &in_local_maps, &bases);
+    let smoothing_started = Instant::now();
+    let (smoothed, smoother) = smoothed_trajectory(park, options, &events, &slam);
+    let smoothing_s = smoothing_started.elapsed().as_secs_f64();
     let wall_s = started.elapsed().as_secs_f64();
     FilterRun {
-        trajectory: final_poses,
+        trajectory: smoothed,
         online_trajectory: trajectory,
-        not_rebased,
+        smoother,
         slam,
         wall_s,
+        smoothing_s,
         steps: events.len(),
         gps_fused: anchor.fused,
         gps_rejected: anchor.rejected,
@@ -413,33 +404,96 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
     }
 }
 
-/// Each pose of `online` (the filter's estimate at the time) re-expressed in the final map:
-/// its pose in its local map (`in_local_maps[i]`: local map number, pose) composed with the
-/// base `bases` gives for that local map. Poses whose local map has no base keep their
-/// online estimate; their number is returned with the trajectory.
-fn final_trajectory(
-    online: &[StampedPose],
-    in_local_maps: &[(usize, [f64; 3])],
-    bases: &[Option<[f64; 3]>],
-) -> (Vec<StampedPose>, usize) {
-    let mut kept = 0;
-    let poses = online
+/// One scan's tree detections as observations, those beyond the range limit left out.
+fn scan_observations(
+    park: &VictoriaPark,
+    scan: usize,
+    options: &VictoriaSlamOptions,
+) -> Vec<LandmarkObservation> {
+    park.scans[scan]
+        .detections
         .iter()
-        .zip(in_local_maps)
-        .map(|(stamped, &(local_map, pose_in_local_map))| {
-            match bases.get(local_map).copied().flatten() {
-                Some(base) => StampedPose {
-                    t_s: stamped.t_s,
-                    pose: compose_pose(base, pose_in_local_map).0,
-                },
-                None => {
-                    kept += 1;
-                    *stamped
-                }
+        .filter(|d| d.range_m <= options.max_range_m && d.range_m > 0.0)
+        .map(|d| LandmarkObservation {
+            range_m: d.range_m,
+            // The file's bearings run 0..π with π/2 straight ahead.
+            bearing_rad: d.bearing_rad - std::f64::consts::FRAC_PI_2,
+            diameter_m: Some(d.diameter_m),
+        })
+        .collect()
+}
+
+/// The laser's pose at each scan estimated again against the finished map, forwards and
+/// backwards ([`MapSmoother`]). The start is the first local map's base, fitted to where the
+/// final map puts its trees ([`SubmapSlam::local_map_bases_in_map`]).
+fn smoothed_trajectory(
+    park: &VictoriaPark,
+    options: &VictoriaSlamOptions,
+    events: &[(f64, Event)],
+    slam: &SubmapSlam<AckermannModel>,
+) -> (Vec<StampedPose>, MapSmootherStats) {
+    let landmarks = slam.landmarks_in_map();
+    let start = slam
+        .local_map_bases_in_map()
+        .first()
+        .copied()
+        .flatten()
+        .or_else(|| slam.global_map().bases_in_map().first().copied())
+        .unwrap_or_default();
+    let mut robot = slam.robot_in_local_map();
+    robot.as_mut_slice()[..3].copy_from_slice(&start);
+    let mut smoother = MapSmoother::new(
+        &options.motion,
+        options.sensor,
+        MapSmootherOptions::default(),
+        &landmarks,
+        robot,
+        Matrix3::identity() * 1e-6,
+    );
+    let gps_noise = Matrix2::identity() * options.gps_sigma_m.powi(2);
+    let antenna_in_robot = [
+        options.sensor.sensor_in_robot[0],
+        options.sensor.sensor_in_robot[1],
+    ];
+    let mut input = AckermannInput::default();
+    let mut last_t_s = events.first().map_or(0.0, |e| e.0);
+    let mut scan_epochs = Vec::with_capacity(park.scans.len());
+    for &(t_s, event) in events {
+        smoother.predict(&input, t_s - last_t_s);
+        last_t_s = t_s;
+        match event {
+            Event::Input(i) => {
+                input = AckermannInput {
+                    wheel_speed_mps: park.inputs[i].speed_mps,
+                    steer_rad: park.inputs[i].steer_rad,
+                };
             }
+            Event::Scan(i) => {
+                let epoch = smoother.epoch();
+                smoother.observe(&scan_observations(park, i, options));
+                scan_epochs.push((t_s, epoch));
+            }
+            Event::Gps(i) => {
+                let fix = park.gps[i];
+                smoother.epoch();
+                smoother.observe_position(
+                    [fix.x_m, fix.y_m],
+                    antenna_in_robot,
+                    &gps_noise,
+                    options.gps_gate_distance2,
+                );
+            }
+        }
+    }
+    let poses = smoother.smooth();
+    let trajectory = scan_epochs
+        .into_iter()
+        .map(|(t_s, epoch)| StampedPose {
+            t_s,
+            pose: compose_pose(poses[epoch], options.sensor.sensor_in_robot).0,
         })
         .collect();
-    (poses, kept)
+    (trajectory, smoother.stats())
 }
 
 /// The laser's pose in the map frame.
@@ -670,7 +724,10 @@ fn write_outputs(
         online_rms_to_gps_m,
         online_median_to_gps_m,
         online_rms_to_gps_without_jumps_m,
-        poses_not_rebased: run.not_rebased,
+        smoothing_s: run.smoothing_s,
+        smoother_paired: run.smoother.paired,
+        smoother_unpaired: run.smoother.unpaired,
+        smoother_fixes_used: run.smoother.fixes_used,
         calibration,
         filter: stats.into(),
         step_time_by_map_size: step_time_classes(&run.step_times),

@@ -268,17 +268,6 @@ impl<M: MotionModel> SubmapSlam<M> {
         (pose, covariance)
     }
 
-    /// The number of the local map being built (0 for the first): the index of its base in
-    /// [`SubmapSlam::local_map_bases_in_map`] once it is closed.
-    pub fn local_map_number(&self) -> usize {
-        self.anchors.len()
-    }
-
-    /// The robot's pose in the base frame of the local map being built.
-    pub fn robot_pose_in_local_map(&self) -> [f64; 3] {
-        self.local.state().pose()
-    }
-
     /// The base of every closed local map, fitted to where the map now puts its landmarks
     /// ([`LocalMapAnchors`]): a pose recorded in local map `k`'s frame lies at
     /// `bases[k] ⊕ pose` in the map as it stands now. `None` for local maps with too few
