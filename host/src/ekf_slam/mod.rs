@@ -12,6 +12,8 @@
 //! * [`LocalMap`] and [`GlobalMap`]: local maps and map joining (Tardós et al. 2002).
 //! * [`LocalMapAnchors`]: each finished local map's base, fitted again to the final map.
 //! * [`SubmapSlam`]: the pipeline.
+//! * [`MapSmoother`]: the trajectory estimated again against the finished map, forwards and
+//!   backwards.
 //! * [`GpsAnchor`]: GPS fixes align the map to the GPS frame, then update the filter.
 
 pub mod ackermann;
