@@ -387,7 +387,10 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
     }
     slam.close_last_local_map();
     let smoothing_started = Instant::now();
-    let (smoothed, smoother) = smoothed_trajectory(park, options, &events, &slam);
+    // The fixes are in the frame of gps.dat; the map is too once they aligned it.
+    let fixes_in_map_frame = anchor.is_aligned();
+    let (smoothed, smoother) =
+        smoothed_trajectory(park, options, &events, &slam, fixes_in_map_frame);
     let smoothing_s = smoothing_started.elapsed().as_secs_f64();
     let wall_s = started.elapsed().as_secs_f64();
     FilterRun {
@@ -431,6 +434,7 @@ fn smoothed_trajectory(
     options: &VictoriaSlamOptions,
     events: &[(f64, Event)],
     slam: &SubmapSlam<AckermannModel>,
+    use_fixes: bool,
 ) -> (Vec<StampedPose>, MapSmootherStats) {
     let landmarks = slam.landmarks_in_map();
     let start = slam
@@ -473,7 +477,7 @@ fn smoothed_trajectory(
                 smoother.observe(&scan_observations(park, i, options));
                 scan_epochs.push((t_s, epoch));
             }
-            Event::Gps(i) => {
+            Event::Gps(i) if use_fixes => {
                 let fix = park.gps[i];
                 smoother.epoch();
                 smoother.observe_position(
@@ -483,6 +487,7 @@ fn smoothed_trajectory(
                     options.gps_gate_distance2,
                 );
             }
+            Event::Gps(_) => {}
         }
     }
     let poses = smoother.smooth();
