@@ -351,12 +351,7 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         slam.predict(&input, t_s - last_t_s);
         last_t_s = t_s;
         match event {
-            Event::Input(i) => {
-                input = AckermannInput {
-                    wheel_speed_mps: park.inputs[i].speed_mps,
-                    steer_rad: park.inputs[i].steer_rad,
-                };
-            }
+            Event::Input(i) => input = drive_input(park, i),
             Event::Scan(i) => {
                 let observations = scan_observations(park, i, options);
                 let landmarks = slam.global_landmark_count();
@@ -404,6 +399,14 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         gps_fused: anchor.fused,
         gps_rejected: anchor.rejected,
         step_times,
+    }
+}
+
+/// The car's drive input number `i`.
+fn drive_input(park: &VictoriaPark, i: usize) -> AckermannInput {
+    AckermannInput {
+        wheel_speed_mps: park.inputs[i].speed_mps,
+        steer_rad: park.inputs[i].steer_rad,
     }
 }
 
@@ -466,12 +469,7 @@ fn smoothed_trajectory(
         smoother.predict(&input, t_s - last_t_s);
         last_t_s = t_s;
         match event {
-            Event::Input(i) => {
-                input = AckermannInput {
-                    wheel_speed_mps: park.inputs[i].speed_mps,
-                    steer_rad: park.inputs[i].steer_rad,
-                };
-            }
+            Event::Input(i) => input = drive_input(park, i),
             Event::Scan(i) => {
                 let epoch = smoother.epoch();
                 smoother.observe(&scan_observations(park, i, options));

@@ -384,6 +384,21 @@ mod tests {
         }
     }
 
+    /// A smoother over `landmarks` starting at the origin, known to 0.1 m and 0.1 rad.
+    fn at_origin<'a>(
+        model: &'a DifferentialDriveModel,
+        landmarks: &'a [MappedLandmark],
+    ) -> MapSmoother<'a, DifferentialDriveModel> {
+        MapSmoother::new(
+            model,
+            sensor(),
+            MapSmootherOptions::default(),
+            landmarks,
+            DVector::zeros(3),
+            Matrix3::identity() * 0.01,
+        )
+    }
+
     /// What the sensor reads of `landmarks` from `pose`, without noise.
     fn observe(pose: [f64; 3], landmarks: &[MappedLandmark]) -> Vec<LandmarkObservation> {
         landmarks
@@ -481,28 +496,14 @@ mod tests {
         let model = DifferentialDriveModel::default();
         // Two trees 0.3 m apart: at 10 m, closer than the bearing noise tells apart.
         let trees = [landmark(10.0, 0.0), landmark(10.0, 0.3)];
-        let mut smoother = MapSmoother::new(
-            &model,
-            sensor(),
-            MapSmootherOptions::default(),
-            &trees,
-            DVector::zeros(3),
-            Matrix3::identity() * 0.01,
-        );
+        let mut smoother = at_origin(&model, &trees);
         smoother.epoch();
         smoother.observe(&observe([0.0; 3], &trees[..1]));
         assert_eq!(smoother.stats().paired, 0);
         assert_eq!(smoother.stats().unpaired, 1);
 
         let alone = [landmark(10.0, 0.0)];
-        let mut smoother = MapSmoother::new(
-            &model,
-            sensor(),
-            MapSmootherOptions::default(),
-            &alone,
-            DVector::zeros(3),
-            Matrix3::identity() * 0.01,
-        );
+        let mut smoother = at_origin(&model, &alone);
         smoother.epoch();
         smoother.observe(&observe([0.0; 3], &alone));
         assert_eq!(smoother.stats().paired, 1);
