@@ -159,6 +159,9 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         realtime: options.realtime,
         hardware: None,
     };
+    // The pty's device end stays open until the daemon has read everything: closing it hangs
+    // the line up, and the frames still in the board end's buffer would be lost.
+    let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;
     let simulation = run_relayed(&run_options, relay);
     // The daemon reads on its own thread: give it the frames the simulation's side read.
     if let Ok(summary) = &simulation {
@@ -175,6 +178,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     std::thread::sleep(Duration::from_secs_f64(options.linger_s.max(0.0)));
     let web = daemon.web_addr().map(|a| format!("http://{a}/"));
     let outcome = daemon.stop().map_err(io::Error::other)?;
+    drop(device_end);
     let simulation = simulation?;
 
     let image = image_path
