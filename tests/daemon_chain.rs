@@ -15,6 +15,7 @@ use std::fs;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use hil_sim::demo::{self, DemoOptions};
@@ -24,6 +25,10 @@ use host::daemon::config::{DaemonConfig, SlamMethod};
 use host::daemon::replay::replay;
 use host::daemon::runner::{Daemon, SerialPortOpener};
 use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, Message, RangeUnit, ScanMsg};
+
+/// The demos run the whole chain in real time on pseudo-terminals. Two at once on a two-core
+/// machine compete for the cores the firmware's timing depends on, so they take turns.
+static REAL_TIME: Mutex<()> = Mutex::new(());
 
 fn out_dir(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -61,6 +66,9 @@ fn http(addr: SocketAddr, method: &str, path: &str, body: &str) -> (u16, String)
 
 #[test]
 fn demo_outdoor_maps_geo_references_and_replays_identically() {
+    let _turn = REAL_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     let out = out_dir("daemon-demo-outdoor");
     let mut api_checks = None;
     let options = DemoOptions {
@@ -170,6 +178,9 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
 
 #[test]
 fn demo_indoor_builds_an_occupancy_grid() {
+    let _turn = REAL_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     let out = out_dir("daemon-demo-indoor");
     let options = DemoOptions {
         world: WorldKind::Indoor,
