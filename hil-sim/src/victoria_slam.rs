@@ -471,13 +471,11 @@ fn smoothed_trajectory(
         match event {
             Event::Input(i) => input = drive_input(park, i),
             Event::Scan(i) => {
-                let epoch = smoother.epoch();
-                smoother.observe(&scan_observations(park, i, options));
+                let epoch = smoother.observe(&scan_observations(park, i, options));
                 scan_epochs.push((t_s, epoch));
             }
             Event::Gps(i) if use_fixes => {
                 let fix = park.gps[i];
-                smoother.epoch();
                 smoother.observe_position(
                     [fix.x_m, fix.y_m],
                     antenna_in_robot,

@@ -164,7 +164,7 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
     }
 
     /// Starts an epoch at the current time and returns its number.
-    pub fn epoch(&mut self) -> usize {
+    fn begin_epoch(&mut self) -> usize {
         let pose = self.pose();
         self.epochs.push(Epoch {
             predicted: (pose, self.covariance),
@@ -175,9 +175,10 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         self.epochs.len() - 1
     }
 
-    /// Uses one scan's observations: each pairs with the one landmark within the gate, or is
-    /// left out. Call [`Self::epoch`] first.
-    pub fn observe(&mut self, observations: &[LandmarkObservation]) {
+    /// Uses one scan's observations (none is fine): each pairs with the one landmark within
+    /// the gate, or is left out. Returns the scan's epoch, its index in [`Self::smooth`].
+    pub fn observe(&mut self, observations: &[LandmarkObservation]) -> usize {
+        let epoch = self.begin_epoch();
         let landmark_noise = Matrix2::identity() * self.options.landmark_sigma_m.powi(2);
         for observation in observations {
             let Some(pairing) = self.pair(observation, &landmark_noise) else {
@@ -189,11 +190,12 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
             }
         }
         self.store();
+        epoch
     }
 
     /// Uses a measured position in the map frame of the point `antenna_in_robot`, with
     /// covariance `noise`, unless its squared Mahalanobis distance exceeds `gate_distance2`.
-    /// Call [`Self::epoch`] first. Returns whether it was used.
+    /// Returns whether it was used.
     pub fn observe_position(
         &mut self,
         position_in_map: [f64; 2],
@@ -201,6 +203,7 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         noise: &Matrix2<f64>,
         gate_distance2: f64,
     ) -> bool {
+        self.begin_epoch();
         let (predicted, d_pose, _) = transform_point(self.pose_array(), antenna_in_robot);
         let innovation = Vector2::new(
             position_in_map[0] - predicted[0],
@@ -224,7 +227,7 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         self.stats
     }
 
-    /// The smoothed pose of every epoch, epoch 0 first.
+    /// The smoothed pose of every epoch: the start (epoch 0), then each scan and fix.
     pub fn smooth(&self) -> Vec<[f64; 3]> {
         let mut smoothed = vec![[0.0; 3]; self.epochs.len()];
         let Some(last) = self.epochs.last() else {
@@ -413,12 +416,17 @@ mod tests {
     }
 
     /// Drives along x at 1 m/s for `seconds`, odometry reading 5 % short; at each whole
-    /// second, `at_second` may observe. Returns the smoother and the epoch of each second.
+    /// second, `at_second` observes something and records the epoch of that second. Returns
+    /// the smoothed pose at each second.
     fn drive_short(
         model: &DifferentialDriveModel,
         landmarks: &[MappedLandmark],
         seconds: usize,
-        mut at_second: impl FnMut(&mut MapSmoother<'_, DifferentialDriveModel>, [f64; 3]),
+        mut at_second: impl FnMut(
+            &mut MapSmoother<'_, DifferentialDriveModel>,
+            [f64; 3],
+            &mut Vec<usize>,
+        ),
     ) -> Vec<[f64; 3]> {
         let mut smoother = MapSmoother::new(
             model,
@@ -437,8 +445,7 @@ mod tests {
             for _ in 0..10 {
                 smoother.predict(&odometry, 0.1);
             }
-            epochs.push(smoother.epoch());
-            at_second(&mut smoother, [second as f64, 0.0, 0.0]);
+            at_second(&mut smoother, [second as f64, 0.0, 0.0], &mut epochs);
         }
         let smoothed = smoother.smooth();
         epochs.into_iter().map(|e| smoothed[e]).collect()
@@ -455,8 +462,8 @@ mod tests {
                 ]
             })
             .collect();
-        let poses = drive_short(&model, &trees, 20, |smoother, truth| {
-            smoother.observe(&observe(truth, &trees));
+        let poses = drive_short(&model, &trees, 20, |smoother, truth, epochs| {
+            epochs.push(smoother.observe(&observe(truth, &trees)));
         });
         // Odometry alone would be 1 m short at 20 s.
         for (second, pose) in poses.iter().enumerate() {
@@ -474,7 +481,8 @@ mod tests {
         };
         let noise = Matrix2::identity() * 0.01;
         let mut filtered_at_10_s = [0.0; 3];
-        let poses = drive_short(&model, &[], 20, |smoother, truth| {
+        let poses = drive_short(&model, &[], 20, |smoother, truth, epochs| {
+            epochs.push(smoother.observe(&[]));
             if truth[0] == 10.0 {
                 filtered_at_10_s = smoother.pose_array();
             }
@@ -497,14 +505,12 @@ mod tests {
         // Two trees 0.3 m apart: at 10 m, closer than the bearing noise tells apart.
         let trees = [landmark(10.0, 0.0), landmark(10.0, 0.3)];
         let mut smoother = at_origin(&model, &trees);
-        smoother.epoch();
         smoother.observe(&observe([0.0; 3], &trees[..1]));
         assert_eq!(smoother.stats().paired, 0);
         assert_eq!(smoother.stats().unpaired, 1);
 
         let alone = [landmark(10.0, 0.0)];
         let mut smoother = at_origin(&model, &alone);
-        smoother.epoch();
         smoother.observe(&observe([0.0; 3], &alone));
         assert_eq!(smoother.stats().paired, 1);
     }
