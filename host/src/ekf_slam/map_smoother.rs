@@ -76,8 +76,10 @@ struct Pairing {
     /// Jacobian of the observation with respect to the pose.
     h_pose: Matrix2x3<f64>,
     innovation: Vector2<f64>,
-    /// Covariance of the innovation.
-    s: Matrix2<f64>,
+    /// Measurement noise: the sensor's and the landmark's spread, seen through the sensor.
+    noise: Matrix2<f64>,
+    /// Inverse of the innovation covariance.
+    s_inverse: Matrix2<f64>,
 }
 
 /// Running totals of a [`MapSmoother`].
@@ -185,9 +187,13 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
                 self.stats.unpaired += 1;
                 continue;
             };
-            if self.update(&pairing.innovation, &pairing.h_pose, &pairing.s) {
-                self.stats.paired += 1;
-            }
+            self.update(
+                &pairing.innovation,
+                &pairing.h_pose,
+                &pairing.noise,
+                &pairing.s_inverse,
+            );
+            self.stats.paired += 1;
         }
         self.store();
         epoch
@@ -210,9 +216,13 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
             position_in_map[1] - predicted[1],
         );
         let s = d_pose * self.covariance * d_pose.transpose() + noise;
-        let used = s.try_inverse().is_some_and(|s_inv| {
-            (innovation.transpose() * s_inv * innovation)[0] <= gate_distance2
-        }) && self.update(&innovation, &d_pose, &s);
+        let s_inverse = s.try_inverse().filter(|s_inverse| {
+            (innovation.transpose() * s_inverse * innovation)[0] <= gate_distance2
+        });
+        if let Some(s_inverse) = &s_inverse {
+            self.update(&innovation, &d_pose, noise, s_inverse);
+        }
+        let used = s_inverse.is_some();
         if used {
             self.stats.fixes_used += 1;
         } else {
@@ -311,9 +321,8 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
                     };
                     let innovation = RangeBearingModel::innovation(observation, &predicted);
                     let (h_pose, h_landmark) = (predicted.d_pose, predicted.d_landmark);
-                    let s = h_pose * self.covariance * h_pose.transpose()
-                        + h_landmark * landmark_noise * h_landmark.transpose()
-                        + noise;
+                    let total_noise = h_landmark * landmark_noise * h_landmark.transpose() + noise;
+                    let s = h_pose * self.covariance * h_pose.transpose() + total_noise;
                     let Some(s_inverse) = s.try_inverse() else {
                         continue;
                     };
@@ -329,7 +338,8 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
                     found = Some(Pairing {
                         h_pose,
                         innovation,
-                        s,
+                        noise: total_noise,
+                        s_inverse,
                     });
                 }
             }
@@ -337,25 +347,25 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         found
     }
 
-    /// The Kalman update of the pose with `innovation`, Jacobian `h` and innovation
-    /// covariance `s` (Joseph form). False when `s` is singular.
-    fn update(&mut self, innovation: &Vector2<f64>, h: &Matrix2x3<f64>, s: &Matrix2<f64>) -> bool {
-        let Some(s_inv) = s.try_inverse() else {
-            return false;
-        };
+    /// The Kalman update of the pose with `innovation`, Jacobian `h`, measurement noise
+    /// `noise` and the inverse of the innovation covariance (Joseph form).
+    fn update(
+        &mut self,
+        innovation: &Vector2<f64>,
+        h: &Matrix2x3<f64>,
+        noise: &Matrix2<f64>,
+        s_inverse: &Matrix2<f64>,
+    ) {
         let p = self.covariance;
-        let gain = p * h.transpose() * s_inv;
+        let gain = p * h.transpose() * s_inverse;
         let correction = gain * innovation;
         for i in 0..3 {
             self.robot[i] += correction[i];
         }
         self.robot[2] = wrap_angle_rad(self.robot[2]);
-        // Joseph form with the noise recovered from s: R = S − H P Hᵀ.
-        let noise = s - h * p * h.transpose();
         let i_kh = Matrix3::identity() - gain * h;
         let updated = i_kh * p * i_kh.transpose() + gain * noise * gain.transpose();
         self.covariance = 0.5 * (updated + updated.transpose());
-        true
     }
 }
 
