@@ -117,6 +117,19 @@ impl VictoriaSlamOptions {
             slam: SubmapSlamOptions::default(),
         }
     }
+
+    /// Covariance of a GPS fix.
+    fn gps_noise(&self) -> Matrix2<f64> {
+        Matrix2::identity() * self.gps_sigma_m.powi(2)
+    }
+
+    /// Where on the car the fixes are taken: the laser, which the GPS track follows.
+    fn antenna_in_robot(&self) -> [f64; 2] {
+        [
+            self.sensor.sensor_in_robot[0],
+            self.sensor.sensor_in_robot[1],
+        ]
+    }
 }
 
 /// Step times of scans taken while the global map had a given number of landmarks.
@@ -344,7 +357,8 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         gate_distance2: options.gps_gate_distance2,
         ..GpsAnchorOptions::default()
     });
-    let gps_noise = Matrix2::identity() * options.gps_sigma_m.powi(2);
+    let gps_noise = options.gps_noise();
+    let antenna_in_robot = options.antenna_in_robot();
 
     for &(t_s, event) in &events {
         let step_started = Instant::now();
@@ -366,10 +380,6 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
             }
             Event::Gps(i) => {
                 let fix = park.gps[i];
-                let antenna_in_robot = [
-                    options.sensor.sensor_in_robot[0],
-                    options.sensor.sensor_in_robot[1],
-                ];
                 let outcome =
                     anchor.on_fix(&mut slam, [fix.x_m, fix.y_m], &gps_noise, antenna_in_robot);
                 if let GpsOutcome::Aligned(enu_from_map) = outcome {
@@ -457,11 +467,8 @@ fn smoothed_trajectory(
         robot,
         Matrix3::identity() * 1e-6,
     );
-    let gps_noise = Matrix2::identity() * options.gps_sigma_m.powi(2);
-    let antenna_in_robot = [
-        options.sensor.sensor_in_robot[0],
-        options.sensor.sensor_in_robot[1],
-    ];
+    let gps_noise = options.gps_noise();
+    let antenna_in_robot = options.antenna_in_robot();
     let mut input = AckermannInput::default();
     let mut last_t_s = events.first().map_or(0.0, |e| e.0);
     let mut scan_epochs = Vec::with_capacity(park.scans.len());
