@@ -95,12 +95,14 @@ mod tests {
     use crate::scan_match::pose::Pose2;
     use crate::scan_match::scan::Scan;
 
-    #[test]
-    fn test_uncovered_matches_direct_drawing() {
+    /// Checks `uncovered_px` against drawing each shifted candidate directly, on a raster of
+    /// `size_px` whose reference blocks a stretch of one row, for every offset within `margin_px`.
+    fn check_against_direct_drawing(size_px: [u32; 2], margin_px: [usize; 2]) {
+        let [width, height] = size_px;
         let raster = RasterOptions {
             resolution_m: 0.1,
-            width_px: 70,
-            height_px: 40,
+            width_px: width,
+            height_px: height,
             max_gap_m: 1.0,
         };
         let scan = Scan::from_points_in_robot(vec![
@@ -113,19 +115,20 @@ mod tests {
         ]);
         let polyline = Polyline::new(&scan, raster.max_gap_m);
         let vertices = polyline.vertices_px(Pose2::IDENTITY, &raster);
-        let margin = [5, 3];
-        let rotated = RotatedScan::new(&polyline, &vertices, &raster, margin);
+        let rotated = RotatedScan::new(&polyline, &vertices, &raster, margin_px);
 
-        let mut blocked = BitGrid::new(70, 40, 0);
-        for column in 30..40 {
-            blocked.set(column, 20);
+        let (width, height) = (width as usize, height as usize);
+        let mut blocked = BitGrid::new(width, height, 0);
+        for column in width / 2 - 5..width / 2 + 5 {
+            blocked.set(column, height / 2);
         }
         blocked.fill_padding();
-        for dx in -5..=5 {
-            for dy in -3..=3 {
+        let [mx, my] = margin_px.map(|m| m as i32);
+        for dx in -mx..=mx {
+            for dy in -my..=my {
                 let mut expected = std::collections::HashSet::new();
                 polyline.draw(&vertices, [dx, dy], |[c, r]| {
-                    let inside = (0..70).contains(&c) && (0..40).contains(&r);
+                    let inside = (0..width as i32).contains(&c) && (0..height as i32).contains(&r);
                     if inside && !blocked.get(c as usize, r as usize) {
                         expected.insert([c, r]);
                     }
@@ -137,5 +140,16 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn test_uncovered_matches_direct_drawing() {
+        check_against_direct_drawing([70, 40], [5, 3]);
+    }
+
+    #[test]
+    fn test_uncovered_matches_direct_drawing_across_words() {
+        // Offsets of more than a word, so that the drawing's words slide past the raster's.
+        check_against_direct_drawing([200, 40], [70, 3]);
     }
 }
