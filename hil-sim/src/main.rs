@@ -175,6 +175,10 @@ enum Command {
         /// Disable loop closure (local tracking only).
         #[arg(long)]
         no_loop_closure: bool,
+        /// Skip the final refinement (every scan aligned on the submaps near it once the run
+        /// is over).
+        #[arg(long)]
+        no_refinement: bool,
         /// Local tracking: below this share of the scanned surface (end points weighted by
         /// range) on the submap after alignment, the wide search runs.
         #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().min_surface_fraction, allow_hyphen_values = true, value_parser = parse_fraction)]
@@ -649,6 +653,7 @@ fn main() -> ExitCode {
             relations,
             reference,
             no_loop_closure,
+            no_refinement,
             min_surface_fraction,
             every_heading_below,
             free_weight,
@@ -659,6 +664,7 @@ fn main() -> ExitCode {
             };
             let mut slam = host::slam::SlamOptions::default();
             slam.loop_closure.enabled = !no_loop_closure;
+            slam.refinement.enabled = !no_refinement;
             slam.local.min_surface_fraction = min_surface_fraction;
             slam.local.full_turn_below_surface_fraction = every_heading_below;
             slam.local.free_weight = free_weight;

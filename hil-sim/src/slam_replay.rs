@@ -152,7 +152,7 @@ pub fn replay_carmen_slam(
         });
         slam.add_scan(scan, odometry);
     }
-    let result = slam.finish();
+    let result = slam.finish(&scans);
     let wall_s = started.elapsed().as_secs_f64();
 
     let write_error = |path: &Path| {

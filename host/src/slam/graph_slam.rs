@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
+use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
@@ -26,6 +27,8 @@ pub struct SlamStats {
     pub loop_closure_searches: usize,
     /// Loop-closure constraints added.
     pub loop_closures: usize,
+    /// Constraints added by the final refinement.
+    pub refinement_constraints: usize,
     /// Pose-graph optimisations run.
     pub optimizations: usize,
     /// Optimisations that failed (the poses were kept as they were).
@@ -132,12 +135,19 @@ impl GraphSlam {
         self.pose_in_map(node).unwrap_or(pose_in_map)
     }
 
-    /// Ends the run: a last optimisation if loops were found since the previous one, and the
-    /// poses of every scan.
-    pub fn finish(mut self) -> SlamResult {
-        self.stats.submaps += self.tracker.finish().len();
+    /// Ends the run: a last optimisation if loops were found since the previous one, the final
+    /// refinement ([`super::final_refinement`], when enabled) and the poses of every scan.
+    ///
+    /// `scans` are the scans as added, in order; the refinement is skipped when their number
+    /// is not the number added.
+    pub fn finish(mut self, scans: &[Scan]) -> SlamResult {
+        let active = self.tracker.finish();
+        self.stats.submaps += active.len();
         if self.closures_since_optimization > 0 {
             self.optimize();
+        }
+        if self.options.refinement.enabled && scans.len() == self.poses_in_local.len() {
+            self.refine(scans, &active);
         }
         SlamResult {
             poses_in_map: self.graph.nodes().iter().map(|n| n.pose_in_map).collect(),
@@ -195,7 +205,38 @@ impl GraphSlam {
         }
     }
 
+    /// Adds the final refinement's constraints (`active`: the submaps still active at the
+    /// end, now finished) and optimises once more.
+    fn refine(&mut self, scans: &[Scan], active: &[SlamSubmap]) {
+        let trusted: Vec<Scan> = scans
+            .iter()
+            .map(|s| self.options.trusted_beams(s))
+            .collect();
+        let submaps: Vec<&SlamSubmap> = self
+            .finished
+            .iter()
+            .map(|(submap, _)| submap)
+            .chain(active)
+            .collect();
+        let closures = refinement_closures(&self.poses_in_map(), &submaps, &trusted, &self.options);
+        for closure in closures {
+            if self.add_constraint(closure) {
+                self.stats.refinement_constraints += 1;
+            }
+        }
+        if self.closures_since_optimization > 0 {
+            self.optimize();
+        }
+    }
+
     fn add_closure(&mut self, closure: FoundClosure) {
+        if self.add_constraint(closure) {
+            self.stats.loop_closures += 1;
+        }
+    }
+
+    /// Adds `closure` to the graph as a robust constraint; whether it was added.
+    fn add_constraint(&mut self, closure: FoundClosure) -> bool {
         let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
         let edge = Edge::new(
             NodeId(closure.submap_first_node),
@@ -206,10 +247,11 @@ impl GraphSlam {
         .with_kernel(RobustKernel::Huber {
             delta: self.options.loop_closure_huber_delta,
         });
-        if self.graph.add_edge(edge).is_ok() {
-            self.stats.loop_closures += 1;
+        let added = self.graph.add_edge(edge).is_ok();
+        if added {
             self.closures_since_optimization += 1;
         }
+        added
     }
 
     fn optimize(&mut self) {
@@ -284,9 +326,14 @@ mod tests {
         for scan in &scans {
             slam.add_scan(scan, None);
         }
-        let result = slam.finish();
+        let result = slam.finish(&scans);
         assert_eq!(result.poses_in_map.len(), truth.len());
         assert!(result.stats.loop_closures > 0, "{:?}", result.stats);
+        assert!(
+            result.stats.refinement_constraints > 0,
+            "{:?}",
+            result.stats
+        );
         // Every pose, in the frame of the first one, against the truth.
         let origin = truth[0].inverse();
         let mut worst_m: f64 = 0.0;
@@ -304,11 +351,14 @@ mod tests {
         let walls = ring_walls();
         let truth = ring_trajectory(0.3);
         let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
-        for pose in &truth {
-            let scan = cast_front_scan(&walls, *pose);
-            slam.add_scan(&scan, Some(*pose));
+        let scans: Vec<Scan> = truth
+            .iter()
+            .map(|&pose| cast_front_scan(&walls, pose))
+            .collect();
+        for (scan, pose) in scans.iter().zip(&truth) {
+            slam.add_scan(scan, Some(*pose));
         }
-        let result = slam.finish();
+        let result = slam.finish(&scans);
         let first = truth[0].inverse();
         let last = result.poses_in_map.last().copied().unwrap_or_default();
         let error = (first * truth[truth.len() - 1]).inverse() * last;

@@ -16,11 +16,14 @@
 //! * **Pose graph** ([`crate::pose_graph`]): one node per scan, an edge per consecutive pair
 //!   from local tracking, an edge per loop closure (robust kernel) from the submap's first
 //!   scan; solved with a sparse Cholesky factorisation whenever loops were found.
+//! * **Final refinement** ([`final_refinement`]): at the end of a run, every scan is aligned
+//!   on the finished submaps near it, and the alignments that fit become constraints too.
 //!
-//! [`GraphSlam`] runs the whole, [`GraphSlam::finish`] returns the optimised poses and
+//! [`GraphSlam`] runs the whole, [`GraphSlam::finish`] refines and returns the optimised poses and
 //! [`SlamResult::global_grid`] draws the global map from them.
 
 pub mod closure_confirmation;
+mod final_refinement;
 mod graph_slam;
 pub mod icp;
 mod local_tracker;
@@ -34,7 +37,7 @@ mod window_matcher;
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{LoopCloser, LoopClosure};
-pub use options::{LocalTrackingOptions, LoopClosureOptions, SlamOptions};
+pub use options::{LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions};
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
 pub use slam_submap::{SlamSubmap, SubmapFit};

@@ -25,6 +25,8 @@ pub struct SlamOptions {
     pub local: LocalTrackingOptions,
     /// Loop closure.
     pub loop_closure: LoopClosureOptions,
+    /// The alignment of every scan on the submaps near it at the end of a run.
+    pub refinement: RefinementOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
     pub odometry_sigma: [f64; 2],
     /// Standard deviation of a loop-closure constraint: translation (m), rotation (rad).
@@ -71,6 +73,7 @@ impl Default for SlamOptions {
             min_range_m: 0.1,
             local: LocalTrackingOptions::default(),
             loop_closure: LoopClosureOptions::default(),
+            refinement: RefinementOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
             loop_closure_sigma: [0.03, 0.5f64.to_radians()],
             loop_closure_huber_delta: 3.0,
@@ -177,6 +180,34 @@ impl Default for LoopClosureOptions {
             min_probability: 0.6,
             confirmation: ConfirmationOptions::default(),
             min_scans_apart: 30,
+        }
+    }
+}
+
+/// How every scan is aligned on the finished submaps near it once the run is over
+/// ([`super::final_refinement`]). An alignment is accepted by the loop-closure test
+/// ([`LoopClosureOptions::min_inlier_fraction`], [`LoopClosureOptions::max_free_fraction`],
+/// [`LoopClosureOptions::min_probability`]) after the loop closure's ICP.
+#[derive(Clone, Debug)]
+pub struct RefinementOptions {
+    /// Whether to run it at all.
+    pub enabled: bool,
+    /// Submaps whose frame lies farther from the scan than this are not tried, metres.
+    pub max_distance_m: f64,
+    /// An alignment that moves the scan farther than this from where the graph holds it is
+    /// not used, metres.
+    pub max_correction_m: f64,
+    /// Likewise for its heading, radians.
+    pub max_correction_rad: f64,
+}
+
+impl Default for RefinementOptions {
+    fn default() -> Self {
+        RefinementOptions {
+            enabled: true,
+            max_distance_m: 10.0,
+            max_correction_m: 0.5,
+            max_correction_rad: 3f64.to_radians(),
         }
     }
 }

@@ -1,0 +1,179 @@
+//! The end of a run: every scan aligned on the finished submaps near it.
+//!
+//! During the run, loop closure searches only every few scans, and a scan is tied to the
+//! submaps it went into only through the chain of consecutive-scan constraints. Once the run
+//! is over and the graph optimised, every scan is aligned by point-to-line ICP on each
+//! finished submap it did not go into whose frame lies within
+//! [`RefinementOptions::max_distance_m`], starting from their relative pose in the graph. An
+//! alignment that moves the scan by at most [`RefinementOptions::max_correction_m`] and
+//! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
+//! becomes a constraint like a loop closure's, and the graph is optimised once more. Every
+//! place seen again is then tied to every submap that saw it, as in the final optimisation of
+//! Hess et al. 2016, where each scan is constrained against every submap it matches.
+//!
+//! No wide search runs here: the graph already holds the loops that loop closure found, and a
+//! scan the graph places more than [`RefinementOptions::max_correction_m`] off is left to it.
+
+use super::closure_confirmation::FoundClosure;
+use super::icp::align;
+use super::options::{RefinementOptions, SlamOptions};
+use super::slam_submap::SlamSubmap;
+use crate::scan_match::{Pose2, Scan};
+
+/// The constraints found for `scans` (in node order, the beams the SLAM trusted) at
+/// `poses_in_map` (the optimised graph, one per scan) in `submaps`. See the
+/// [module documentation](self).
+pub(crate) fn refinement_closures(
+    poses_in_map: &[Pose2],
+    submaps: &[&SlamSubmap],
+    scans: &[Scan],
+    options: &SlamOptions,
+) -> Vec<FoundClosure> {
+    let refinement = &options.refinement;
+    let loop_closure = &options.loop_closure;
+    let mut closures = Vec::new();
+    for (node, (scan, &pose_in_map)) in scans.iter().zip(poses_in_map).enumerate() {
+        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
+        for submap in submaps {
+            if (submap.first_node()..=submap.last_node()).contains(&node) {
+                continue;
+            }
+            let Some(&submap_in_map) = poses_in_map.get(submap.first_node()) else {
+                continue;
+            };
+            let guess = submap_in_map.inverse() * pose_in_map;
+            if guess.x_m.hypot(guess.y_m) > refinement.max_distance_m {
+                continue;
+            }
+            if !may_fit(submap, &points, guess, options) {
+                continue;
+            }
+            let Some(aligned) = align(submap.points(), &points, guess, &loop_closure.icp) else {
+                continue;
+            };
+            if !within_correction(guess, aligned.map_from_robot, refinement) {
+                continue;
+            }
+            let fit = submap.fit(&points, aligned.map_from_robot, loop_closure.icp.inlier_m);
+            if fit.inlier_fraction >= loop_closure.min_inlier_fraction
+                && fit.free_fraction <= loop_closure.max_free_fraction
+                && fit.mean_probability >= loop_closure.min_probability
+            {
+                closures.push(FoundClosure {
+                    submap_first_node: submap.first_node(),
+                    node,
+                    pose_in_submap: aligned.map_from_robot,
+                });
+            }
+        }
+    }
+    closures
+}
+
+/// Whether enough of `points_in_robot` lie near the submap's points at `guess` for an
+/// alignment within the allowed correction to pass the acceptance test's share of end points
+/// on the submap's surfaces. Only then is the alignment worth running.
+///
+/// A correction of at most `t` and `θ` moves a point at range `r` by at most `t + r θ`, so an
+/// end point that fits after it lies within `inlier_m + t + r θ` of a map point before it.
+/// The test is therefore necessary for acceptance, and skipping what fails it changes no
+/// result.
+fn may_fit(
+    submap: &SlamSubmap,
+    points_in_robot: &[[f64; 2]],
+    guess: Pose2,
+    options: &SlamOptions,
+) -> bool {
+    let refinement = &options.refinement;
+    let loop_closure = &options.loop_closure;
+    // A micrometre of slack for rounding.
+    let reach_m = loop_closure.icp.inlier_m + refinement.max_correction_m + 1e-6;
+    let near = points_in_robot
+        .iter()
+        .filter(|p| {
+            let range_m = p[0].hypot(p[1]);
+            let point = guess.transform_point(**p);
+            let reach_m = reach_m + range_m * refinement.max_correction_rad;
+            submap.points().nearest_within(point, reach_m).is_some()
+        })
+        .count();
+    near as f64 / points_in_robot.len() as f64 >= loop_closure.min_inlier_fraction
+}
+
+/// Whether `aligned` lies within the allowed correction of `guess`.
+fn within_correction(guess: Pose2, aligned: Pose2, options: &RefinementOptions) -> bool {
+    let correction = guess.inverse() * aligned;
+    correction.x_m.hypot(correction.y_m) <= options.max_correction_m
+        && correction.theta_rad.abs() <= options.max_correction_rad
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
+
+    /// An irregular room, so that no shift or turn maps it onto itself.
+    fn room_scan(pose: Pose2) -> Scan {
+        let walls = polygon_walls(&[
+            [-4.0, -3.0],
+            [5.0, -3.0],
+            [5.0, 2.0],
+            [1.0, 4.0],
+            [-2.0, 4.0],
+            [-4.0, 1.0],
+        ]);
+        cast_front_scan(&walls, pose)
+    }
+
+    /// A finished submap of nodes `0..8`, scanned around the room's middle, and a later node 8
+    /// whose graph pose is `held_pose` while it was truly scanned at `true_pose`.
+    fn closures_for(
+        options: &SlamOptions,
+        true_pose: Pose2,
+        held_pose: Pose2,
+    ) -> Vec<FoundClosure> {
+        let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
+        let mut poses_in_map: Vec<Pose2> = (0..8)
+            .map(|k| {
+                let k = f64::from(k);
+                Pose2::new(0.12 * k, -0.06 * k, 0.04 * k)
+            })
+            .collect();
+        let mut scans = Vec::new();
+        for (node, &pose) in poses_in_map.iter().enumerate() {
+            let scan = room_scan(pose);
+            submap.insert(node, &scan, pose);
+            scans.push(scan);
+        }
+        submap.finish();
+        scans.push(room_scan(true_pose));
+        poses_in_map.push(held_pose);
+        refinement_closures(&poses_in_map, &[&submap], &scans, options)
+    }
+
+    #[test]
+    fn a_scan_held_a_little_off_is_tied_to_the_submap_where_it_fits() {
+        let true_pose = Pose2::new(0.8, -0.4, 0.2);
+        let held_pose = Pose2::new(0.95, -0.3, 0.22);
+        let closures = closures_for(&SlamOptions::default(), true_pose, held_pose);
+        // Nodes 0 to 7 went into the submap; only node 8 is aligned on it.
+        assert_eq!(closures.len(), 1, "{closures:?}");
+        let closure = closures[0];
+        assert_eq!((closure.submap_first_node, closure.node), (0, 8));
+        let error = true_pose.inverse() * closure.pose_in_submap;
+        assert!(error.x_m.hypot(error.y_m) < 0.01, "{error:?}");
+        assert!(error.theta_rad.abs() < 0.2f64.to_radians(), "{error:?}");
+    }
+
+    #[test]
+    fn a_scan_held_beyond_the_allowed_correction_is_left_to_the_graph() {
+        let true_pose = Pose2::new(0.8, -0.4, 0.2);
+        let held_pose = Pose2::new(0.8, -0.4, 0.2 + 6f64.to_radians());
+        let mut options = SlamOptions::default();
+        let closures = closures_for(&options, true_pose, held_pose);
+        assert!(closures.is_empty(), "{closures:?}");
+        // The alignment itself finds the pose: only the limit turns it down.
+        options.refinement.max_correction_rad = 10f64.to_radians();
+        assert_eq!(closures_for(&options, true_pose, held_pose).len(), 1);
+    }
+}
