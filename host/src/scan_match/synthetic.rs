@@ -60,6 +60,19 @@ pub fn cast_front_scan(walls: &[WallInMap], pose: Pose2) -> Scan {
     )
 }
 
+/// The walls of an irregular room about 9 m × 7 m around the origin, whose outline no shift or
+/// turn maps onto itself.
+pub fn irregular_room_walls() -> Vec<WallInMap> {
+    polygon_walls(&[
+        [-4.0, -3.0],
+        [5.0, -3.0],
+        [5.0, 2.0],
+        [1.0, 4.0],
+        [-2.0, 4.0],
+        [-4.0, 1.0],
+    ])
+}
+
 /// Distance along the unit ray `origin + t * direction` to `wall`, if the ray meets it ahead.
 fn ray_hits_wall_m(origin: [f64; 2], direction: [f64; 2], wall: &WallInMap) -> Option<f64> {
     let [a, b] = *wall;

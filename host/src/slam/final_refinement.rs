@@ -55,10 +55,7 @@ pub(crate) fn refinement_closures(
                 continue;
             }
             let fit = submap.fit(&points, aligned.map_from_robot, loop_closure.icp.inlier_m);
-            if fit.inlier_fraction >= loop_closure.min_inlier_fraction
-                && fit.free_fraction <= loop_closure.max_free_fraction
-                && fit.mean_probability >= loop_closure.min_probability
-            {
+            if loop_closure.accepts(&fit) {
                 closures.push(FoundClosure {
                     submap_first_node: submap.first_node(),
                     node,
@@ -110,19 +107,10 @@ fn within_correction(guess: Pose2, aligned: Pose2, options: &RefinementOptions) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
+    use crate::scan_match::synthetic::{cast_front_scan, irregular_room_walls};
 
-    /// An irregular room, so that no shift or turn maps it onto itself.
     fn room_scan(pose: Pose2) -> Scan {
-        let walls = polygon_walls(&[
-            [-4.0, -3.0],
-            [5.0, -3.0],
-            [5.0, 2.0],
-            [1.0, 4.0],
-            [-2.0, 4.0],
-            [-4.0, 1.0],
-        ]);
-        cast_front_scan(&walls, pose)
+        cast_front_scan(&irregular_room_walls(), pose)
     }
 
     /// A finished submap of nodes `0..8`, scanned around the room's middle, and a later node 8

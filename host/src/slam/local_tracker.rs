@@ -281,19 +281,10 @@ impl LocalTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
+    use crate::scan_match::synthetic::{cast_front_scan, irregular_room_walls};
 
-    /// An irregular room, so that no turn maps it onto itself.
     fn room_scan(pose: Pose2) -> Scan {
-        let walls = polygon_walls(&[
-            [-4.0, -3.0],
-            [5.0, -3.0],
-            [5.0, 2.0],
-            [1.0, 4.0],
-            [-2.0, 4.0],
-            [-4.0, 1.0],
-        ]);
-        cast_front_scan(&walls, pose)
+        cast_front_scan(&irregular_room_walls(), pose)
     }
 
     fn tracked_heading_deg(options: SlamOptions, headings_deg: &[f64]) -> f64 {

@@ -71,10 +71,7 @@ impl LoopCloser {
         let icp = &self.options.icp;
         let aligned = align(submap.points(), &points, found.reference_from_new, icp)?;
         let fit = submap.fit(&points, aligned.map_from_robot, icp.inlier_m);
-        let good = fit.inlier_fraction >= self.options.min_inlier_fraction
-            && fit.free_fraction <= self.options.max_free_fraction
-            && fit.mean_probability >= self.options.min_probability;
-        good.then_some(LoopClosure {
+        self.options.accepts(&fit).then_some(LoopClosure {
             pose_in_submap: aligned.map_from_robot,
             fit,
         })

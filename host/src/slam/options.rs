@@ -3,6 +3,7 @@
 use super::closure_confirmation::ConfirmationOptions;
 use super::icp::IcpOptions;
 use super::point_map::PointMapOptions;
+use super::slam_submap::SubmapFit;
 use crate::grid::SubmapOptions;
 use crate::pose_graph::OptimizeOptions;
 use crate::scan_match::Scan;
@@ -163,6 +164,15 @@ pub struct LoopClosureOptions {
     pub min_scans_apart: usize,
 }
 
+impl LoopClosureOptions {
+    /// Whether a scan aligned on a submap with `fit` is good enough to become a constraint.
+    pub fn accepts(&self, fit: &SubmapFit) -> bool {
+        fit.inlier_fraction >= self.min_inlier_fraction
+            && fit.free_fraction <= self.max_free_fraction
+            && fit.mean_probability >= self.min_probability
+    }
+}
+
 impl Default for LoopClosureOptions {
     fn default() -> Self {
         LoopClosureOptions {
@@ -185,9 +195,8 @@ impl Default for LoopClosureOptions {
 }
 
 /// How every scan is aligned on the finished submaps near it once the run is over
-/// ([`super::final_refinement`]). An alignment is accepted by the loop-closure test
-/// ([`LoopClosureOptions::min_inlier_fraction`], [`LoopClosureOptions::max_free_fraction`],
-/// [`LoopClosureOptions::min_probability`]) after the loop closure's ICP.
+/// ([`super::final_refinement`]). An alignment runs the loop closure's ICP and is accepted by
+/// its test ([`LoopClosureOptions::accepts`]).
 #[derive(Clone, Debug)]
 pub struct RefinementOptions {
     /// Whether to run it at all.
