@@ -23,7 +23,7 @@
 //! [`SlamResult::global_grid`] draws the global map from them.
 
 pub mod closure_confirmation;
-mod final_refinement;
+pub mod final_refinement;
 mod graph_slam;
 pub mod icp;
 mod local_tracker;
