@@ -76,7 +76,8 @@ pub fn replay(
         counters: session.counters(),
         ..LiveState::default()
     };
-    if let Some(grid) = &grid {
+    if let Some(grid) = grid.as_mut() {
+        grid.finish();
         publish_grid(&mut state, grid, ekf.is_none());
     }
     if let Some(ekf) = &ekf {

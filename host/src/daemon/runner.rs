@@ -502,6 +502,7 @@ fn run_grid(
             publish_grid_pose(&mut s, &pipeline);
         }
     }
+    pipeline.finish();
     if let Ok(mut s) = state.write() {
         publish_grid(&mut s, &pipeline, owns_pose);
     }
