@@ -8,8 +8,8 @@
 //! alignment that moves the scan by at most [`RefinementOptions::max_correction_m`] and
 //! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
 //! becomes a constraint like a loop closure's, and the graph is optimised once more. Every
-//! place seen again is then tied to every submap that saw it, as in the final optimisation of
-//! Hess et al. 2016, where each scan is constrained against every submap it matches.
+//! place seen again is then tied to every submap that saw it, not only to the ones loop
+//! closure happened to search from it.
 //!
 //! No wide search runs here: the graph already holds the loops that loop closure found, and a
 //! scan the graph places more than [`RefinementOptions::max_correction_m`] off is left to it.
