@@ -6,7 +6,11 @@ use super::jcbb::JcbbOptions;
 /// How observations are paired with landmarks.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AssociationOptions {
-    /// Confidence of the individual (per pairing) chi-square gate.
+    /// Confidence of the individual (per pairing) chi-square gate. It only shortlists
+    /// candidates for the joint test ([`JcbbOptions::confidence`]), so it is set wider: an
+    /// observation of a known landmark that fails it is dropped as ambiguous, and those are
+    /// the observations with the largest innovations, the ones that would correct the
+    /// largest errors. Dropping them makes the filter over-confident.
     pub individual_confidence: f64,
     /// The joint compatibility search.
     pub jcbb: JcbbOptions,
@@ -23,12 +27,12 @@ pub struct AssociationOptions {
 }
 
 impl Default for AssociationOptions {
-    /// 99 % gates; new landmarks beyond a squared distance of 25; diameters within
-    /// 0.15 m + 30 %; a place the map finds implausible needs 15 trees (three times the
+    /// A 99.7 % individual gate and a 99 % joint one; new landmarks beyond a squared
+    /// distance of 25; diameters within 0.15 m + 30 %; a place the map finds implausible needs 15 trees (three times the
     /// place recognition's minimum).
     fn default() -> Self {
         AssociationOptions {
-            individual_confidence: 0.99,
+            individual_confidence: 0.997,
             jcbb: JcbbOptions::default(),
             new_landmark_distance2: 25.0,
             diameter_tolerance_m: 0.15,
