@@ -124,6 +124,12 @@ fn submap_filter_is_consistent_in_the_park() {
         "{report:?}"
     );
     assert!(report.submap_final_error_m < 1.0, "{report:?}");
+    // The ideal EKF, the test's reference on the same runs, stays on the true path.
+    assert!(
+        (0.0..=1.0).contains(&report.ideal_ekf_fraction_within),
+        "{report:?}"
+    );
+    assert!(report.ideal_ekf_final_error_m < 0.5, "{report:?}");
 }
 
 /// In seed 5's park a stretch of trees looks like a place 49 m away. In run 11 two

@@ -192,11 +192,13 @@ enum Command {
         #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, allow_hyphen_values = true, value_parser = parse_weight)]
         free_weight: f64,
     },
-    /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter and a
-    /// single global EKF on the same noisy odometry and tree observations. Prints as its last
-    /// line `{"runs":N,"submap_fraction_within":…,"full_ekf_fraction_within":…}`: the
-    /// fraction of steps whose run-averaged robot-pose NEES lies within the 95 % chi-square
-    /// bounds.
+    /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter, a single
+    /// global EKF and the ideal EKF (true data association, Jacobians at the true state; the
+    /// reference for what the test yields on these runs) on the same noisy odometry and tree
+    /// observations. Prints as its last line
+    /// `{"runs":N,"submap_fraction_within":…,"full_ekf_fraction_within":…,
+    /// "ideal_ekf_fraction_within":…}`: the fraction of steps whose run-averaged robot-pose
+    /// NEES lies within the 95 % chi-square bounds.
     Nees {
         /// World (only `outdoor` has landmarks).
         #[arg(long, default_value = "outdoor")]
@@ -501,6 +503,7 @@ fn nees(options: hil_sim::nees::NeesOptions) -> Result<(), Box<dyn std::error::E
             "runs": report.runs,
             "submap_fraction_within": report.submap_fraction_within,
             "full_ekf_fraction_within": report.full_ekf_fraction_within,
+            "ideal_ekf_fraction_within": report.ideal_ekf_fraction_within,
         })
     );
     Ok(())

@@ -7,6 +7,7 @@
 
 use core::f64::consts::PI;
 
+use host::ekf_slam::{DifferentialDriveModel, RangeBearingModel};
 use serde::{Deserialize, Serialize};
 
 /// Noise and timing of a simulated landmark run. Every field has a working default
@@ -89,6 +90,28 @@ impl NoiseModel {
     /// second (evaluated at the true yaw rate, as [`Self::speed_sigma_at_mps`]).
     pub fn yaw_rate_sigma_at_radps(&self, yaw_rate_radps: f64) -> f64 {
         self.yaw_rate_sigma_radps + self.yaw_rate_sigma_per_yaw_rate * yaw_rate_radps.abs()
+    }
+
+    /// The differential-drive model a filter predicts with on this noise: the same speed and
+    /// yaw-rate standard deviations, and the model's own small sideways slip.
+    pub fn motion_model(&self) -> DifferentialDriveModel {
+        DifferentialDriveModel {
+            sigma_speed_mps: self.speed_sigma_mps,
+            sigma_yaw_rate_radps: self.yaw_rate_sigma_radps,
+            sigma_speed_per_speed: self.speed_sigma_per_speed,
+            sigma_yaw_rate_per_yaw_rate: self.yaw_rate_sigma_per_yaw_rate,
+            ..DifferentialDriveModel::default()
+        }
+    }
+
+    /// The range-bearing model a filter observes with on this noise: the laser at the robot
+    /// origin, the same standard deviations.
+    pub fn sensor_model(&self) -> RangeBearingModel {
+        RangeBearingModel {
+            sensor_in_robot: [0.0; 3],
+            sigma_range_m: self.range_sigma_m,
+            sigma_bearing_rad: self.bearing_sigma_rad,
+        }
     }
 
     /// Checks that every standard deviation is finite and not negative, the laser period and
