@@ -87,8 +87,8 @@ impl IdealEkf {
     /// then maps the others; every Jacobian at `true_pose` and the true landmark centres.
     ///
     /// # Errors
-    /// An observation of a landmark the world lacks or on the sensor, or a failed update (the
-    /// state is then left as the update found it).
+    /// An observation of a landmark the world lacks or on the sensor, or a failed update; the
+    /// state is then unchanged.
     pub fn observe(
         &mut self,
         observations: &[SimObservation],
