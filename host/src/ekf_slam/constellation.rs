@@ -298,8 +298,19 @@ impl Constellation {
         let votes = self.vote(&local);
         let mut ranked: Vec<((i64, i64, i64), Vote)> = votes.into_iter().collect();
         // Most votes first; the key breaks ties so the result does not depend on hashing.
-        ranked.sort_by(|a, b| b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0)));
-        ranked.truncate(self.options.verified_hypotheses);
+        // Only the first `verified_hypotheses` are kept, so only they are sorted.
+        let most_voted_first = |a: &((i64, i64, i64), Vote), b: &((i64, i64, i64), Vote)| {
+            b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0))
+        };
+        let kept = self.options.verified_hypotheses;
+        if kept == 0 {
+            return Vec::new();
+        }
+        if ranked.len() > kept {
+            ranked.select_nth_unstable_by(kept - 1, most_voted_first);
+            ranked.truncate(kept);
+        }
+        ranked.sort_unstable_by(most_voted_first);
         let mut verified: Vec<PlaceMatch> = ranked
             .iter()
             .filter_map(|(_, vote)| self.verify(&local, vote))
@@ -334,6 +345,7 @@ impl Constellation {
         let mut votes: FastMap<(i64, i64, i64), Vote> = FastMap::default();
         for (i, j, length_m) in self.local_pairs(local) {
             let (first, second) = (&local[i], &local[j]);
+            let local_pair = PairFrame::new(first.position_in_map, second.position_in_map);
             let low = self.length_key(length_m - tolerance_m - slack_m);
             let high = self.length_key(length_m + tolerance_m + slack_m);
             for key in low..=high {
@@ -357,10 +369,8 @@ impl Constellation {
                         {
                             continue;
                         }
-                        let old_from_local = transform_from_pairs(
-                            [first.position_in_map, second.position_in_map],
-                            [to_first.position_in_map, to_second.position_in_map],
-                        );
+                        let old_from_local = local_pair
+                            .transform_onto(to_first.position_in_map, to_second.position_in_map);
                         let landed = transform(old_from_local, centroid);
                         let key = (
                             (old_from_local[2] / VOTE_ANGLE_BIN_RAD).round() as i64,
@@ -669,15 +679,32 @@ pub(crate) fn centroid_in_map(points: impl IntoIterator<Item = [f64; 2]>) -> [f6
     [sum[0] / count as f64, sum[1] / count as f64]
 }
 
-/// The rigid transform taking segment `from` onto segment `to`: the rotation of their
-/// directions and the translation of their midpoints.
-fn transform_from_pairs(from: [[f64; 2]; 2], to: [[f64; 2]; 2]) -> [f64; 3] {
-    let angle = |s: [[f64; 2]; 2]| (s[1][1] - s[0][1]).atan2(s[1][0] - s[0][0]);
-    let theta_rad = wrap_angle_rad(angle(to) - angle(from));
-    let mid = |s: [[f64; 2]; 2]| [(s[0][0] + s[1][0]) / 2.0, (s[0][1] + s[1][1]) / 2.0];
-    let rotated = transform([0.0, 0.0, theta_rad], mid(from));
-    let mid_to = mid(to);
-    [mid_to[0] - rotated[0], mid_to[1] - rotated[1], theta_rad]
+/// A segment between two points, as the rigid transform taking it onto another segment needs
+/// it: worked out once per local pair, since voting moves each onto many old ones.
+#[derive(Debug, Clone, Copy)]
+struct PairFrame {
+    /// Direction from the first point to the second, radians.
+    angle_rad: f64,
+    /// Midpoint of the two.
+    mid: [f64; 2],
+}
+
+impl PairFrame {
+    fn new(first: [f64; 2], second: [f64; 2]) -> PairFrame {
+        PairFrame {
+            angle_rad: (second[1] - first[1]).atan2(second[0] - first[0]),
+            mid: [(first[0] + second[0]) / 2.0, (first[1] + second[1]) / 2.0],
+        }
+    }
+
+    /// The rigid transform `[x_m, y_m, theta_rad]` taking this pair onto `(first, second)`:
+    /// its direction onto theirs, its midpoint onto theirs.
+    fn transform_onto(&self, first: [f64; 2], second: [f64; 2]) -> [f64; 3] {
+        let to = PairFrame::new(first, second);
+        let theta_rad = wrap_angle_rad(to.angle_rad - self.angle_rad);
+        let rotated = transform([0.0, 0.0, theta_rad], self.mid);
+        [to.mid[0] - rotated[0], to.mid[1] - rotated[1], theta_rad]
+    }
 }
 
 /// Least-squares rigid transform moving `from[i]` onto `to[i]` (2D Procrustes, equal weights);
