@@ -167,15 +167,20 @@ impl EkfState {
         let p_rr = self.covariance.view((0, 0), (r, r)).into_owned();
         let new_rr = f * p_rr * f.transpose() + q;
         self.covariance.view_mut((0, 0), (r, r)).copy_from(&new_rr);
-        if n > r {
-            let p_rl = self.covariance.view((0, r), (r, n - r)).into_owned();
-            let new_rl = f * p_rl;
-            self.covariance
-                .view_mut((0, r), (r, n - r))
-                .copy_from(&new_rl);
-            self.covariance
-                .view_mut((r, 0), (n - r, r))
-                .copy_from(&new_rl.transpose());
+        // The robot-landmark block becomes F P_rl, column by column; rows of F that are unit
+        // rows (robot entries the motion leaves alone, such as a calibration) keep theirs.
+        let moved_rows: Vec<usize> = (0..r)
+            .filter(|&i| (0..r).any(|k| f[(i, k)] != if i == k { 1.0 } else { 0.0 }))
+            .collect();
+        let mut column = vec![0.0; moved_rows.len()];
+        for j in r..n {
+            for (value, &i) in column.iter_mut().zip(&moved_rows) {
+                *value = (0..r).map(|k| f[(i, k)] * self.covariance[(k, j)]).sum();
+            }
+            for (&value, &i) in column.iter().zip(&moved_rows) {
+                self.covariance[(i, j)] = value;
+                self.covariance[(j, i)] = value;
+            }
         }
         debug_assert_symmetric!(self.covariance);
     }
@@ -650,6 +655,38 @@ mod tests {
         let expected = &f * before.view((0, 3), (3, 2));
         assert!((cross - expected).amax() < 1e-12);
         assert_eq!(state.landmark(0), [3.0, 4.0]);
+    }
+
+    #[test]
+    fn prediction_equals_the_dense_product_when_some_robot_entries_stay() {
+        // Pose plus two calibration entries the motion leaves alone, and three landmarks.
+        let n = 11;
+        let a = DMatrix::from_fn(n, n, |r, c| ((r * 5 + c * 3) % 7) as f64 * 0.1 - 0.3);
+        let covariance = &a * a.transpose() + DMatrix::identity(n, n) * 0.2;
+        let mut state = EkfState::from_parts(DVector::zeros(n), covariance.clone(), 5);
+        let mut f = DMatrix::identity(5, 5);
+        for (row, values) in [[0.9, 0.1, -0.7, 0.3, 0.2], [0.0, 1.0, 0.4, -0.1, 0.5]]
+            .iter()
+            .enumerate()
+        {
+            for (col, &value) in values.iter().enumerate() {
+                f[(row, col)] = value;
+            }
+        }
+        let q = DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.02, 0.003, 1e-4, 1e-5]));
+        state.predict_robot(&DVector::from_vec(vec![1.0, 2.0, 0.3, 1.01, 0.02]), &f, &q);
+
+        let mut f_whole = DMatrix::identity(n, n);
+        f_whole.view_mut((0, 0), (5, 5)).copy_from(&f);
+        let mut q_whole = DMatrix::zeros(n, n);
+        q_whole.view_mut((0, 0), (5, 5)).copy_from(&q);
+        let expected = &f_whole * covariance * f_whole.transpose() + q_whole;
+        assert!((state.covariance() - &expected).amax() < 1e-12);
+        // The robot-landmark blocks mirror each other exactly.
+        let covariance = state.covariance();
+        let upper = covariance.view((0, 5), (5, n - 5)).into_owned();
+        let lower = covariance.view((5, 0), (n - 5, 5)).transpose();
+        assert_eq!(upper, lower);
     }
 
     /// A robot and four landmarks with a dense, well-conditioned covariance.
