@@ -292,7 +292,8 @@ impl Constellation {
                 info: landmark.info,
             })
             .collect();
-        if local.len() < 2 || self.indexed_count < 2 {
+        let kept = self.options.verified_hypotheses;
+        if local.len() < 2 || self.indexed_count < 2 || kept == 0 {
             return Vec::new();
         }
         let votes = self.vote(&local);
@@ -302,10 +303,6 @@ impl Constellation {
         let most_voted_first = |a: &((i64, i64, i64), Vote), b: &((i64, i64, i64), Vote)| {
             b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0))
         };
-        let kept = self.options.verified_hypotheses;
-        if kept == 0 {
-            return Vec::new();
-        }
         if ranked.len() > kept {
             ranked.select_nth_unstable_by(kept - 1, most_voted_first);
             ranked.truncate(kept);
