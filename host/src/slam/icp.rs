@@ -50,6 +50,12 @@ pub struct IcpMatch {
     pub inlier_fraction: f64,
     /// RMS point-to-line distance of those end points, metres.
     pub rms_m: f64,
+    /// `Σ w J Jᵀ` over those end points at the final pose (Huber weights `w`, `J` the
+    /// derivative of the point-to-line distance with respect to `(x_m, y_m, theta_rad)` of
+    /// `map_from_robot`, the translation taken in the map frame): the information the
+    /// alignment holds about the pose per unit variance of the distances. Along a corridor it
+    /// is weak, as the alignment is.
+    pub information: Matrix3<f64>,
 }
 
 /// Aligns `points_in_robot` on `map`, starting from `guess` (`map_from_robot`). `None` when
@@ -78,13 +84,19 @@ pub fn align(
         }
     }
     let (mut inliers, mut sum_sq) = (0usize, 0.0);
+    let mut information = Matrix3::zeros();
+    let (sin, cos) = pose.theta_rad.sin_cos();
     for &p in points_in_robot {
         let moved = pose.transform_point(p);
         if let Some(q) = map.nearest_within(moved, options.inlier_m) {
             let [qx, qy] = q.point;
             let [nx, ny] = q.normal;
+            let residual = nx * (moved[0] - qx) + ny * (moved[1] - qy);
             inliers += 1;
-            sum_sq += (nx * (moved[0] - qx) + ny * (moved[1] - qy)).powi(2);
+            sum_sq += residual * residual;
+            let jacobian = distance_jacobian(q.normal, p, sin, cos);
+            information +=
+                huber_weight(residual, options.huber_m) * jacobian * jacobian.transpose();
         }
     }
     Some(IcpMatch {
@@ -95,7 +107,34 @@ pub fn align(
         } else {
             f64::INFINITY
         },
+        information,
     })
+}
+
+/// The derivative of the distance of `point_in_robot`, moved by a pose with heading
+/// `(sin, cos)`, along `normal`, with respect to the pose's `(x_m, y_m, theta_rad)`.
+fn distance_jacobian(
+    normal: [f64; 2],
+    point_in_robot: [f64; 2],
+    sin: f64,
+    cos: f64,
+) -> Vector3<f64> {
+    let ([nx, ny], [px, py]) = (normal, point_in_robot);
+    // d(moved)/dθ = (-sin px - cos py, cos px - sin py).
+    Vector3::new(
+        nx,
+        ny,
+        nx * (-sin * px - cos * py) + ny * (cos * px - sin * py),
+    )
+}
+
+/// The Huber weight of a distance `residual_m` with threshold `huber_m`.
+fn huber_weight(residual_m: f64, huber_m: f64) -> f64 {
+    if residual_m.abs() <= huber_m {
+        1.0
+    } else {
+        huber_m / residual_m.abs()
+    }
 }
 
 /// One damped Gauss–Newton step `[dx, dy, dθ]` on the pairs within `max_distance_m`.
@@ -121,17 +160,8 @@ fn gauss_newton_step(
         let [qx, qy] = q.point;
         let [nx, ny] = q.normal;
         let residual = nx * (moved[0] - qx) + ny * (moved[1] - qy);
-        // d(moved)/dθ = (-sin px - cos py, cos px - sin py).
-        let jacobian = Vector3::new(
-            nx,
-            ny,
-            nx * (-sin * px - cos * py) + ny * (cos * px - sin * py),
-        );
-        let weight = if residual.abs() <= options.huber_m {
-            1.0
-        } else {
-            options.huber_m / residual.abs()
-        };
+        let jacobian = distance_jacobian(q.normal, [px, py], sin, cos);
+        let weight = huber_weight(residual, options.huber_m);
         hessian += weight * jacobian * jacobian.transpose();
         gradient += weight * residual * jacobian;
         pairs += 1;
@@ -174,6 +204,7 @@ mod tests {
             map_from_robot: Pose2::IDENTITY,
             inlier_fraction: 0.0,
             rms_m: 1.0,
+            information: Matrix3::zeros(),
         });
         let error = truth.inverse() * found.map_from_robot;
         assert!(error.x_m.hypot(error.y_m) < 0.005, "{error:?}");

@@ -23,6 +23,8 @@
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
 
+use nalgebra::Matrix3;
+
 use super::icp::align;
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
@@ -39,12 +41,25 @@ pub struct TrackedScan {
     pub pose_in_local: Pose2,
     /// How the scan fits the submap it was aligned on (default for the first scan).
     pub fit: SubmapFit,
+    /// What the alignment that placed the scan knows of its pose: ICP's information
+    /// ([`IcpMatch::information`](super::icp::IcpMatch)) about a small motion of the robot in
+    /// its own frame, `(x_m, y_m, theta_rad)`. `None` when no alignment placed it.
+    pub information_in_robot: Option<Matrix3<f64>>,
     /// Whether the wide search ran.
     pub searched: bool,
     /// Whether the wide search ran once more over every heading.
     pub searched_every_heading: bool,
     /// A submap this scan finished, to keep for loop closure.
     pub finished_submap: Option<SlamSubmap>,
+}
+
+/// A scan aligned on the older active submap.
+#[derive(Clone, Copy, Debug)]
+struct Alignment {
+    pose_in_local: Pose2,
+    fit: SubmapFit,
+    /// See [`TrackedScan::information_in_robot`].
+    information_in_robot: Matrix3<f64>,
 }
 
 /// The local-tracking state. See the [module documentation](self).
@@ -114,6 +129,7 @@ impl LocalTracker {
                 node,
                 pose_in_local: pose,
                 fit: SubmapFit::default(),
+                information_in_robot: None,
                 searched: false,
                 searched_every_heading: false,
                 finished_submap: None,
@@ -126,7 +142,7 @@ impl LocalTracker {
         let mut searched = false;
         let mut searched_every_heading = false;
         let local = &self.options.local;
-        if best.is_none_or(|(_, fit)| fit.surface_fraction < local.min_surface_fraction) {
+        if best.is_none_or(|a| a.fit.surface_fraction < local.min_surface_fraction) {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
             let mut guesses = vec![last_pose];
@@ -141,20 +157,28 @@ impl LocalTracker {
                 self.keep_better(&mut best, &points, guess, 0.0);
             }
             let full_turn_floor = local.full_turn_below_surface_fraction;
-            if best.is_none_or(|(_, fit)| fit.surface_fraction < full_turn_floor) {
+            if best.is_none_or(|a| a.fit.surface_fraction < full_turn_floor) {
                 searched_every_heading = true;
                 for guess in self.full_turn_guesses(&reference, scan, last_pose, motion) {
                     self.keep_better(&mut best, &points, guess, full_turn_floor);
                 }
             }
         }
-        let (pose, fit) = best.unwrap_or((predicted, SubmapFit::default()));
+        let (pose, fit, information_in_robot) = match best {
+            Some(aligned) => (
+                aligned.pose_in_local,
+                aligned.fit,
+                Some(aligned.information_in_robot),
+            ),
+            None => (predicted, SubmapFit::default(), None),
+        };
         let finished_submap = self.accept(node, scan, pose);
         self.last_motion = last_pose.inverse() * pose;
         TrackedScan {
             node,
             pose_in_local: pose,
             fit,
+            information_in_robot,
             searched,
             searched_every_heading,
             finished_submap,
@@ -166,16 +190,25 @@ impl LocalTracker {
         &self.active
     }
 
-    /// Aligns `points` (robot frame) on the older active submap from `guess_in_local`: the
-    /// pose in the local frame and how it fits.
-    fn align(&self, points: &[[f64; 2]], guess_in_local: Pose2) -> Option<(Pose2, SubmapFit)> {
+    /// Aligns `points` (robot frame) on the older active submap from `guess_in_local`.
+    fn align(&self, points: &[[f64; 2]], guess_in_local: Pose2) -> Option<Alignment> {
         let submap = self.active.first()?;
         let submap_in_local = submap.pose_in_local();
         let guess = submap_in_local.inverse() * guess_in_local;
         let icp = &self.options.local.icp;
         let found = align(submap.points(), points, guess, icp)?;
         let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
-        Some((submap_in_local * found.map_from_robot, fit))
+        // A motion (R δt, δθ) in the submap frame is (δt, δθ) in the robot's own frame.
+        let mut to_robot = Matrix3::identity();
+        let (sin, cos) = found.map_from_robot.theta_rad.sin_cos();
+        to_robot
+            .fixed_view_mut::<2, 2>(0, 0)
+            .copy_from(&nalgebra::Matrix2::new(cos, -sin, sin, cos));
+        Some(Alignment {
+            pose_in_local: submap_in_local * found.map_from_robot,
+            fit,
+            information_in_robot: to_robot.transpose() * found.information * to_robot,
+        })
     }
 
     /// Aligns `points` from `guess_in_local` and keeps the result in `best` when it scores
@@ -183,16 +216,16 @@ impl LocalTracker {
     /// the scanned surface on the submap's surfaces.
     fn keep_better(
         &self,
-        best: &mut Option<(Pose2, SubmapFit)>,
+        best: &mut Option<Alignment>,
         points: &[[f64; 2]],
         guess_in_local: Pose2,
         min_surface_fraction: f64,
     ) {
         let free_weight = self.options.local.free_weight;
         if let Some(candidate) = self.align(points, guess_in_local)
-            && candidate.1.surface_fraction >= min_surface_fraction
-            && best.is_none_or(|(_, fit)| {
-                candidate.1.tracking_score(free_weight) > fit.tracking_score(free_weight)
+            && candidate.fit.surface_fraction >= min_surface_fraction
+            && best.is_none_or(|b| {
+                candidate.fit.tracking_score(free_weight) > b.fit.tracking_score(free_weight)
             })
         {
             *best = Some(candidate);
