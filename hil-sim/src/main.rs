@@ -191,6 +191,14 @@ enum Command {
         /// seen free counts against a candidate pose (the share on its surfaces counts 1).
         #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, allow_hyphen_values = true, value_parser = parse_weight)]
         free_weight: f64,
+        /// Pose graph: a scan-to-scan constraint is left almost free along the direction in
+        /// which its alignment holds less than this fraction of the information it holds
+        /// across it (a corridor's axis); 0 never does.
+        #[arg(long, default_value_t = host::slam::SlamOptions::default().degenerate_information_ratio, allow_hyphen_values = true, value_parser = parse_fraction)]
+        degenerate_ratio: f64,
+        /// Pose graph: the standard deviation added along such a direction, m.
+        #[arg(long, default_value_t = host::slam::SlamOptions::default().degenerate_sigma_m, allow_hyphen_values = true, value_parser = parse_weight)]
+        degenerate_sigma_m: f64,
     },
     /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter, a single
     /// global EKF and the ideal EKF (true data association, Jacobians at the true state; the
@@ -660,6 +668,8 @@ fn main() -> ExitCode {
             min_surface_fraction,
             every_heading_below,
             free_weight,
+            degenerate_ratio,
+            degenerate_sigma_m,
         } => {
             let beside = |suffix: &str| {
                 let path = log.with_extension(suffix);
@@ -671,6 +681,8 @@ fn main() -> ExitCode {
             slam.local.min_surface_fraction = min_surface_fraction;
             slam.local.full_turn_below_surface_fraction = every_heading_below;
             slam.local.free_weight = free_weight;
+            slam.degenerate_information_ratio = degenerate_ratio;
+            slam.degenerate_sigma_m = degenerate_sigma_m;
             replay_carmen(hil_sim::slam_replay::SlamReplayOptions {
                 relations: relations.or_else(|| beside("relations")),
                 reference: reference.or_else(|| beside("reference.tsv")),

@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
+use super::degeneracy::consecutive_information;
 use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
@@ -110,12 +111,11 @@ impl GraphSlam {
             let _ = self.graph.set_fixed(NodeId(0), true);
         }
         if let Some(&previous) = self.poses_in_local.last() {
-            let [sigma_m, sigma_rad] = self.options.odometry_sigma;
             let edge = Edge::new(
                 NodeId(node - 1),
                 NodeId(node),
                 previous.inverse() * tracked.pose_in_local,
-                Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
+                consecutive_information(&self.options, tracked.information_in_robot.as_ref()),
             );
             let _ = self.graph.add_edge(edge);
         }

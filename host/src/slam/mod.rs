@@ -14,7 +14,8 @@
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
 //!   then aligned on the submap's points; a match good enough becomes a constraint.
 //! * **Pose graph** ([`crate::pose_graph`]): one node per scan, an edge per consecutive pair
-//!   from local tracking, an edge per loop closure (robust kernel) from the submap's first
+//!   from local tracking (left almost free along a corridor's axis, [`degeneracy`]), an edge
+//!   per loop closure (robust kernel) from the submap's first
 //!   scan; solved with a sparse Cholesky factorisation whenever loops were found.
 //! * **Final refinement** ([`final_refinement`]): at the end of a run, every scan is aligned
 //!   on the finished submaps near it, and the alignments that fit become constraints too.
@@ -23,6 +24,7 @@
 //! [`SlamResult::global_grid`] draws the global map from them.
 
 pub mod closure_confirmation;
+pub mod degeneracy;
 pub mod final_refinement;
 mod graph_slam;
 pub mod icp;

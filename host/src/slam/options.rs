@@ -30,6 +30,13 @@ pub struct SlamOptions {
     pub refinement: RefinementOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
     pub odometry_sigma: [f64; 2],
+    /// A consecutive-scan constraint is left almost free along the direction of translation
+    /// in which the alignment that placed the scan holds less than this fraction of the
+    /// information it holds across it (a corridor's axis; [`super::degeneracy`]). 0 keeps
+    /// every constraint at [`Self::odometry_sigma`].
+    pub degenerate_information_ratio: f64,
+    /// Standard deviation added to such a constraint along that direction, metres.
+    pub degenerate_sigma_m: f64,
     /// Standard deviation of a loop-closure constraint: translation (m), rotation (rad).
     pub loop_closure_sigma: [f64; 2],
     /// Huber threshold of loop-closure constraints, in standard deviations.
@@ -76,6 +83,8 @@ impl Default for SlamOptions {
             loop_closure: LoopClosureOptions::default(),
             refinement: RefinementOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
+            degenerate_information_ratio: 0.03,
+            degenerate_sigma_m: 3.0,
             loop_closure_sigma: [0.03, 0.5f64.to_radians()],
             loop_closure_huber_delta: 3.0,
             optimize: OptimizeOptions::default(),
