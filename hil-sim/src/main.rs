@@ -175,6 +175,10 @@ enum Command {
         /// Disable loop closure (local tracking only).
         #[arg(long)]
         no_loop_closure: bool,
+        /// Disable the loop closure against chains of earlier scans (±10 m) for scans no
+        /// submap took.
+        #[arg(long)]
+        no_chain_closure: bool,
         /// Skip the final refinement (every scan aligned on the submaps near it once the run
         /// is over).
         #[arg(long)]
@@ -664,6 +668,7 @@ fn main() -> ExitCode {
             relations,
             reference,
             no_loop_closure,
+            no_chain_closure,
             no_refinement,
             min_surface_fraction,
             every_heading_below,
@@ -677,6 +682,7 @@ fn main() -> ExitCode {
             };
             let mut slam = host::slam::SlamOptions::default();
             slam.loop_closure.enabled = !no_loop_closure;
+            slam.chain_closure.enabled = !no_chain_closure;
             slam.refinement.enabled = !no_refinement;
             slam.local.min_surface_fraction = min_surface_fraction;
             slam.local.full_turn_below_surface_fraction = every_heading_below;

@@ -2,11 +2,14 @@
 //!
 //! One scan matched well in an earlier submap may still be a place that merely looks alike (a
 //! corridor, a row of identical offices). A closure is therefore held back until another scan,
-//! at most [`ConfirmationOptions::window_scans`] later, is found in the same submap at a pose
-//! that agrees with it: the two matches must imply the same motion between the two scans as
-//! local tracking measured, within [`ConfirmationOptions::max_translation_m`] and
+//! at most [`ConfirmationOptions::window_scans`] later, is found in the same submap (or in a
+//! frame close by, [`ConfirmationOptions::max_frame_gap_nodes`]) at a pose that agrees with
+//! it: the two matches must imply the same motion between the two scans as local tracking
+//! measured, within [`ConfirmationOptions::max_translation_m`] and
 //! [`ConfirmationOptions::max_rotation_rad`]. Two coincidences that agree on the geometry are
 //! far less likely than one.
+
+use nalgebra::Matrix3;
 
 use crate::scan_match::Pose2;
 
@@ -19,6 +22,10 @@ pub struct ConfirmationOptions {
     pub max_translation_m: f64,
     /// Largest disagreement in rotation, radians.
     pub max_rotation_rad: f64,
+    /// Two closures in frames of different nodes confirm each other when those nodes are at
+    /// most this many apart: the one frame is carried into the other through local
+    /// tracking's poses. 0 asks for the same frame (the same submap).
+    pub max_frame_gap_nodes: usize,
 }
 
 impl Default for ConfirmationOptions {
@@ -27,6 +34,7 @@ impl Default for ConfirmationOptions {
             window_scans: 20,
             max_translation_m: 0.3,
             max_rotation_rad: 3f64.to_radians(),
+            max_frame_gap_nodes: 0,
         }
     }
 }
@@ -40,6 +48,9 @@ pub struct FoundClosure {
     pub node: usize,
     /// The scan's pose in the submap frame.
     pub pose_in_submap: Pose2,
+    /// What the alignment knows of that pose, about a motion of the robot in its own frame;
+    /// `None` when it is not known.
+    pub information_in_robot: Option<Matrix3<f64>>,
 }
 
 /// Closures waiting for confirmation. See the [module documentation](self).
@@ -69,17 +80,26 @@ impl ClosureConfirmation {
         let mut confirmed = Vec::new();
         let mut agrees = false;
         for (earlier, added) in &mut self.recent {
-            if earlier.submap_first_node != found.submap_first_node || earlier.node == found.node {
+            let frame_gap = earlier.submap_first_node.abs_diff(found.submap_first_node);
+            if frame_gap > self.options.max_frame_gap_nodes || earlier.node == found.node {
                 continue;
             }
-            let (Some(a), Some(b)) = (
+            let (Some(a), Some(b), Some(frame_a), Some(frame_b)) = (
                 poses_in_local.get(earlier.node),
                 poses_in_local.get(found.node),
+                poses_in_local.get(earlier.submap_first_node),
+                poses_in_local.get(found.submap_first_node),
             ) else {
                 continue;
             };
             let tracked = a.inverse() * *b;
-            let matched = earlier.pose_in_submap.inverse() * found.pose_in_submap;
+            // `found`'s pose in `earlier`'s frame (the same pose when the frames are one).
+            let found_in_earlier_frame = if frame_gap == 0 {
+                found.pose_in_submap
+            } else {
+                frame_a.inverse() * *frame_b * found.pose_in_submap
+            };
+            let matched = earlier.pose_in_submap.inverse() * found_in_earlier_frame;
             let difference = tracked.inverse() * matched;
             if difference.x_m.hypot(difference.y_m) > self.options.max_translation_m
                 || difference.theta_rad.abs() > self.options.max_rotation_rad
@@ -116,6 +136,7 @@ mod tests {
             submap_first_node: 0,
             node: 40,
             pose_in_submap: Pose2::new(2.0, 1.0, 0.1),
+            information_in_robot: None,
         };
         assert!(confirmation.offer(first, &poses).is_empty());
         // Five scans on, five metres on along the robot's heading in the submap.
@@ -124,8 +145,36 @@ mod tests {
             submap_first_node: 0,
             node: 45,
             pose_in_submap: Pose2::new(2.0 + 5.0 * cos, 1.0 + 5.0 * sin, 0.1),
+            information_in_robot: None,
         };
         assert_eq!(confirmation.offer(second, &poses), vec![first, second]);
+    }
+
+    #[test]
+    fn closures_in_nearby_frames_confirm_each_other_when_allowed() {
+        let poses = straight_line(60);
+        let first = FoundClosure {
+            submap_first_node: 0,
+            node: 40,
+            pose_in_submap: Pose2::new(2.0, 1.0, 0.0),
+            information_in_robot: None,
+        };
+        // The same place seen from node 3's frame, three metres on along x.
+        let second = FoundClosure {
+            submap_first_node: 3,
+            node: 45,
+            pose_in_submap: Pose2::new(2.0 + 5.0 - 3.0, 1.0, 0.0),
+            information_in_robot: None,
+        };
+        let mut same_frame_only = ClosureConfirmation::new(ConfirmationOptions::default());
+        assert!(same_frame_only.offer(first, &poses).is_empty());
+        assert!(same_frame_only.offer(second, &poses).is_empty());
+        let mut nearby = ClosureConfirmation::new(ConfirmationOptions {
+            max_frame_gap_nodes: 5,
+            ..ConfirmationOptions::default()
+        });
+        assert!(nearby.offer(first, &poses).is_empty());
+        assert_eq!(nearby.offer(second, &poses), vec![first, second]);
     }
 
     #[test]
@@ -136,6 +185,7 @@ mod tests {
             submap_first_node: 0,
             node: 40,
             pose_in_submap: Pose2::new(2.0, 1.0, 0.0),
+            information_in_robot: None,
         };
         assert!(confirmation.offer(first, &poses).is_empty());
         let elsewhere = FoundClosure {

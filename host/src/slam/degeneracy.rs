@@ -28,7 +28,25 @@ pub fn consecutive_information(
     options: &SlamOptions,
     information_in_robot: Option<&Matrix3<f64>>,
 ) -> Matrix3<f64> {
-    let [sigma_m, sigma_rad] = options.odometry_sigma;
+    constraint_information(options.odometry_sigma, options, information_in_robot)
+}
+
+/// The information of a loop-closure constraint found by an alignment with
+/// `information_in_robot`, as [`consecutive_information`] with
+/// [`SlamOptions::loop_closure_sigma`].
+pub fn closure_information(
+    options: &SlamOptions,
+    information_in_robot: Option<&Matrix3<f64>>,
+) -> Matrix3<f64> {
+    constraint_information(options.loop_closure_sigma, options, information_in_robot)
+}
+
+/// Standard deviations `[sigma_m, sigma_rad]`, loosened along the alignment's weak direction.
+fn constraint_information(
+    [sigma_m, sigma_rad]: [f64; 2],
+    options: &SlamOptions,
+    information_in_robot: Option<&Matrix3<f64>>,
+) -> Matrix3<f64> {
     let floor = Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad);
     let weak = information_in_robot.and_then(|information| {
         weak_translation(information, options.degenerate_information_ratio)

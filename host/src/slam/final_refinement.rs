@@ -60,6 +60,7 @@ pub(crate) fn refinement_closures(
                     submap_first_node: submap.first_node(),
                     node,
                     pose_in_submap: aligned.map_from_robot,
+                    information_in_robot: Some(aligned.information_in_robot()),
                 });
             }
         }

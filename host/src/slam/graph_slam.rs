@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
-use super::degeneracy::consecutive_information;
+use super::degeneracy::{closure_information, consecutive_information};
 use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
@@ -26,8 +26,12 @@ pub struct SlamStats {
     pub submaps: usize,
     /// Scan-in-submap searches for loop closure.
     pub loop_closure_searches: usize,
-    /// Loop-closure constraints added.
+    /// Loop-closure constraints added (chain closures included).
     pub loop_closures: usize,
+    /// Scan-in-chain searches, for scans no submap took.
+    pub chain_closure_searches: usize,
+    /// Of the loop-closure constraints, those found in a chain of earlier scans.
+    pub chain_closures: usize,
     /// Constraints added by the final refinement.
     pub refinement_constraints: usize,
     /// Pose-graph optimisations run.
@@ -72,6 +76,13 @@ pub struct GraphSlam {
     map_from_local: Pose2,
     closures_since_optimization: usize,
     confirmation: ClosureConfirmation,
+    /// Searches chains of earlier scans.
+    chain_closer: LoopCloser,
+    chain_confirmation: ClosureConfirmation,
+    /// The last node searched in a chain because a chain closure waits for confirmation.
+    chain_pending_until: usize,
+    /// Every scan added (trusted beams), for the chains.
+    scans: Vec<Scan>,
     stats: SlamStats,
 }
 
@@ -90,6 +101,10 @@ impl GraphSlam {
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
+            chain_closer: LoopCloser::new(options.chain_closure.search.clone())?,
+            chain_confirmation: ClosureConfirmation::new(options.chain_closure.search.confirmation),
+            chain_pending_until: 0,
+            scans: Vec::new(),
             stats: SlamStats::default(),
             options,
         })
@@ -126,8 +141,16 @@ impl GraphSlam {
             self.finished.push((submap, reference));
         }
         let every = self.options.loop_closure.every_n_scans.max(1);
-        if self.options.loop_closure.enabled && node.is_multiple_of(every) {
-            self.close_loops(node, &scan, pose_in_map);
+        if self.options.loop_closure.enabled {
+            let taken = node.is_multiple_of(every) && self.close_loops(node, &scan, pose_in_map);
+            // Every scan is searched while a chain closure waits for its confirmation.
+            let due = node.is_multiple_of(every) || node <= self.chain_pending_until;
+            if self.options.chain_closure.enabled && due && !taken {
+                self.close_loops_in_chain(node, &scan, pose_in_map);
+            }
+        }
+        if self.options.chain_closure.enabled {
+            self.scans.push(scan);
         }
         if self.closures_since_optimization > 0 {
             self.optimize();
@@ -170,8 +193,9 @@ impl GraphSlam {
         self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
     }
 
-    /// Searches the finished submaps near `pose_in_map` for the scan of `node`.
-    fn close_loops(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
+    /// Searches the finished submaps near `pose_in_map` for the scan of `node`; whether a
+    /// submap took it (confirmed or not).
+    fn close_loops(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) -> bool {
         let options = self.closer.options().clone();
         let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
@@ -188,21 +212,86 @@ impl GraphSlam {
             }
         }
         candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut taken = false;
         for (_, index, guess) in candidates {
             let (submap, reference) = &self.finished[index];
             self.stats.loop_closure_searches += 1;
             let Some(closure) = self.closer.search(submap, reference, scan, guess) else {
                 continue;
             };
+            taken = true;
             let found = FoundClosure {
                 submap_first_node: submap.first_node(),
                 node,
                 pose_in_submap: closure.pose_in_submap,
+                information_in_robot: Some(closure.information_in_robot),
             };
             for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
                 self.add_closure(confirmed);
             }
         }
+        taken
+    }
+
+    /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
+    fn close_loops_in_chain(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
+        let Some(found) = self.search_chain(node, scan, pose_in_map) else {
+            return;
+        };
+        let confirmed = self.chain_confirmation.offer(found, &self.poses_in_local);
+        if confirmed.is_empty() {
+            let window = self.options.chain_closure.search.confirmation.window_scans;
+            self.chain_pending_until = node + window;
+        }
+        for confirmed in confirmed {
+            if self.add_constraint(confirmed) {
+                self.stats.loop_closures += 1;
+                self.stats.chain_closures += 1;
+            }
+        }
+    }
+
+    /// Searches the scan of `node`, believed at `pose_in_map`, in the chain of earlier scans
+    /// around the one nearest to it ([`super::ChainClosureOptions`]), drawn at the poses the
+    /// graph holds now. The closure is in the frame of that nearest scan.
+    fn search_chain(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        pose_in_map: Pose2,
+    ) -> Option<FoundClosure> {
+        let chain = &self.options.chain_closure;
+        let last_chained = node.checked_sub(chain.search.min_scans_apart)?;
+        let poses = self.poses_in_map();
+        let distance_m =
+            |pose: &Pose2| (pose.x_m - pose_in_map.x_m).hypot(pose.y_m - pose_in_map.y_m);
+        let centre = (0..=last_chained)
+            .filter(|&n| n < poses.len() && n < self.scans.len())
+            .min_by(|&a, &b| distance_m(&poses[a]).total_cmp(&distance_m(&poses[b])))
+            .filter(|&n| distance_m(&poses[n]) <= chain.search.max_distance_m)?;
+        let first = centre.saturating_sub(chain.half_length_scans);
+        let last = (centre + chain.half_length_scans).min(last_chained);
+        let frame = poses[centre];
+        let mut submap =
+            SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
+        for (chained, (scan, &pose)) in self.scans[first..=last]
+            .iter()
+            .zip(&poses[first..=last])
+            .enumerate()
+        {
+            submap.insert(first + chained, scan, pose);
+        }
+        submap.finish();
+        let reference = submap.reference_scan();
+        self.stats.chain_closure_searches += 1;
+        let guess = frame.inverse() * pose_in_map;
+        let closure = self.chain_closer.search(&submap, &reference, scan, guess)?;
+        Some(FoundClosure {
+            submap_first_node: centre,
+            node,
+            pose_in_submap: closure.pose_in_submap,
+            information_in_robot: Some(closure.information_in_robot),
+        })
     }
 
     /// Adds the final refinement's constraints (`active`: the submaps still active at the
@@ -237,12 +326,11 @@ impl GraphSlam {
 
     /// Adds `closure` to the graph as a robust constraint; whether it was added.
     fn add_constraint(&mut self, closure: FoundClosure) -> bool {
-        let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
         let edge = Edge::new(
             NodeId(closure.submap_first_node),
             NodeId(closure.node),
             closure.pose_in_submap,
-            Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad),
+            closure_information(&self.options, closure.information_in_robot.as_ref()),
         )
         .with_kernel(RobustKernel::Huber {
             delta: self.options.loop_closure_huber_delta,
@@ -344,6 +432,33 @@ mod tests {
         }
         // Over 33 m of noise-free scans; local tracking is the limit.
         assert!(worst_m < 0.10, "worst position error {worst_m} m");
+    }
+
+    #[test]
+    fn a_chain_of_earlier_scans_finds_a_scan_metres_from_where_it_is_believed() {
+        let walls = ring_walls();
+        let truth = ring_trajectory(1.1);
+        let scans: Vec<Scan> = truth
+            .iter()
+            .map(|&pose| cast_front_scan(&walls, pose))
+            .collect();
+        let (last, earlier) = scans.split_last().expect("scans");
+        let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
+        for scan in earlier {
+            slam.add_scan(scan, None);
+        }
+        // The last scan, back near the start, believed 3 m behind along the corridor.
+        let node = earlier.len();
+        let origin = truth[0].inverse();
+        let believed = origin * truth[node] * Pose2::new(-3.0, 0.0, 0.0);
+        let found = slam
+            .search_chain(node, &slam.options.trusted_beams(last), believed)
+            .expect("found in the chain");
+        let frame_in_map = slam.pose_in_map(found.submap_first_node).expect("node");
+        let error = (origin * truth[node]).inverse() * (frame_in_map * found.pose_in_submap);
+        assert!(error.x_m.hypot(error.y_m) < 0.05, "{error:?}");
+        assert!(error.theta_rad.abs() < 1f64.to_radians(), "{error:?}");
+        assert!(found.information_in_robot.is_some());
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! close pairs. The result carries the fraction of end points that then lie within
 //! [`IcpOptions::inlier_m`] of the map: how well the scan fits.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 
 use super::point_map::PointMap;
 use crate::scan_match::{Pose2, wrap_angle_rad};
@@ -56,6 +56,19 @@ pub struct IcpMatch {
     /// alignment holds about the pose per unit variance of the distances. Along a corridor it
     /// is weak, as the alignment is.
     pub information: Matrix3<f64>,
+}
+
+impl IcpMatch {
+    /// [`Self::information`] about a small motion of the robot in its own frame,
+    /// `(x_m, y_m, theta_rad)`: a motion `(δt, δθ)` there is `(R δt, δθ)` in the map frame.
+    pub fn information_in_robot(&self) -> Matrix3<f64> {
+        let (sin, cos) = self.map_from_robot.theta_rad.sin_cos();
+        let mut to_map = Matrix3::identity();
+        to_map
+            .fixed_view_mut::<2, 2>(0, 0)
+            .copy_from(&Matrix2::new(cos, -sin, sin, cos));
+        to_map.transpose() * self.information * to_map
+    }
 }
 
 /// Aligns `points_in_robot` on `map`, starting from `guess` (`map_from_robot`). `None` when

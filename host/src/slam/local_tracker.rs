@@ -198,16 +198,10 @@ impl LocalTracker {
         let icp = &self.options.local.icp;
         let found = align(submap.points(), points, guess, icp)?;
         let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
-        // A motion (R δt, δθ) in the submap frame is (δt, δθ) in the robot's own frame.
-        let mut to_robot = Matrix3::identity();
-        let (sin, cos) = found.map_from_robot.theta_rad.sin_cos();
-        to_robot
-            .fixed_view_mut::<2, 2>(0, 0)
-            .copy_from(&nalgebra::Matrix2::new(cos, -sin, sin, cos));
         Some(Alignment {
             pose_in_local: submap_in_local * found.map_from_robot,
             fit,
-            information_in_robot: to_robot.transpose() * found.information * to_robot,
+            information_in_robot: found.information_in_robot(),
         })
     }
 

@@ -10,6 +10,8 @@
 //! recovers the drift of local tracking; the two thresholds are what keep a corridor that
 //! merely looks alike from closing a loop it should not.
 
+use nalgebra::Matrix3;
+
 use super::icp::align;
 use super::options::LoopClosureOptions;
 use super::slam_submap::{SlamSubmap, SubmapFit};
@@ -23,6 +25,9 @@ pub struct LoopClosure {
     pub pose_in_submap: Pose2,
     /// How the scan fits the submap there.
     pub fit: SubmapFit,
+    /// What the alignment knows of the pose, about a motion of the robot in its own frame
+    /// ([`IcpMatch::information_in_robot`](super::icp::IcpMatch::information_in_robot)).
+    pub information_in_robot: Matrix3<f64>,
 }
 
 /// The searcher. See the [module documentation](self).
@@ -71,9 +76,10 @@ impl LoopCloser {
         let icp = &self.options.icp;
         let aligned = align(submap.points(), &points, found.reference_from_new, icp)?;
         let fit = submap.fit(&points, aligned.map_from_robot, icp.inlier_m);
-        self.options.accepts(&fit).then_some(LoopClosure {
+        self.options.accepts(&fit).then(|| LoopClosure {
             pose_in_submap: aligned.map_from_robot,
             fit,
+            information_in_robot: aligned.information_in_robot(),
         })
     }
 }

@@ -12,7 +12,10 @@
 //!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
-//!   then aligned on the submap's points; a match good enough becomes a constraint.
+//!   then aligned on the submap's points; a match good enough becomes a constraint. A scan
+//!   no submap took is searched once more, over ±10 m, in a chain of the earlier scans
+//!   around the one nearest to it ([`ChainClosureOptions`]): a long loop drifts further than
+//!   the submaps' window, and a stretch that local tracking got wrong blurs a whole submap.
 //! * **Pose graph** ([`crate::pose_graph`]): one node per scan, an edge per consecutive pair
 //!   from local tracking (left almost free along a corridor's axis, [`degeneracy`]), an edge
 //!   per loop closure (robust kernel) from the submap's first
@@ -39,7 +42,9 @@ mod window_matcher;
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{LoopCloser, LoopClosure};
-pub use options::{LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions};
+pub use options::{
+    ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,
+};
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
 pub use slam_submap::{SlamSubmap, SubmapFit};

@@ -26,6 +26,8 @@ pub struct SlamOptions {
     pub local: LocalTrackingOptions,
     /// Loop closure.
     pub loop_closure: LoopClosureOptions,
+    /// Loop closure against a chain of earlier scans, for scans no submap took.
+    pub chain_closure: ChainClosureOptions,
     /// The alignment of every scan on the submaps near it at the end of a run.
     pub refinement: RefinementOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
@@ -81,6 +83,7 @@ impl Default for SlamOptions {
             min_range_m: 0.1,
             local: LocalTrackingOptions::default(),
             loop_closure: LoopClosureOptions::default(),
+            chain_closure: ChainClosureOptions::default(),
             refinement: RefinementOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
             degenerate_information_ratio: 0.03,
@@ -199,6 +202,54 @@ impl Default for LoopClosureOptions {
             min_probability: 0.6,
             confirmation: ConfirmationOptions::default(),
             min_scans_apart: 30,
+        }
+    }
+}
+
+/// How a scan that no finished submap took is searched in a chain of earlier scans: the
+/// scans around the earlier one nearest to it, drawn into a submap of their own at the
+/// poses the graph holds now ([`super::GraphSlam`]).
+///
+/// A submap holds up to twice [`SlamOptions::scans_per_submap`] scans, tens of metres of a
+/// trajectory, and a stretch that local tracking got wrong (a slide along a corridor) blurs
+/// it for every later match; a chain of a few metres either side of where the scan is
+/// believed to be is what the robot saw of that place. Its window is wide, for the drift
+/// of a long loop, so its matches must also agree with a second one before they count
+/// ([`ConfirmationOptions::max_frame_gap_nodes`] lets chains around nearby scans agree).
+#[derive(Clone, Debug)]
+pub struct ChainClosureOptions {
+    /// Whether to search at all (only on the scans loop closure searches).
+    pub enabled: bool,
+    /// Scans taken on each side of the nearest earlier scan.
+    pub half_length_scans: usize,
+    /// The search and its acceptance. Its `max_distance_m` bounds the distance to the
+    /// nearest earlier scan, and its `min_scans_apart` how recent that scan may be.
+    pub search: LoopClosureOptions,
+}
+
+impl Default for ChainClosureOptions {
+    fn default() -> Self {
+        let half_length_scans = 12;
+        ChainClosureOptions {
+            enabled: true,
+            half_length_scans,
+            search: LoopClosureOptions {
+                // A window this wide at the submaps' 10 cm and 1° costs several times more;
+                // ICP's first stage reaches farther than the coarser steps leave.
+                search_window_m: 10.0,
+                search_resolution_m: 0.2,
+                search_rotation_step_rad: 2f64.to_radians(),
+                raster_side_px: 256,
+                min_inlier_fraction: 0.75,
+                max_free_fraction: 0.15,
+                min_probability: 0.5,
+                confirmation: ConfirmationOptions {
+                    max_frame_gap_nodes: 2 * half_length_scans,
+                    ..ConfirmationOptions::default()
+                },
+                min_scans_apart: 50,
+                ..LoopClosureOptions::default()
+            },
         }
     }
 }
