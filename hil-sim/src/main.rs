@@ -172,6 +172,10 @@ enum Command {
         /// relations [default: LOG.reference.tsv when present].
         #[arg(long)]
         reference: Option<PathBuf>,
+        /// Only the log's first N scans (a short run; the relations beyond them are not
+        /// covered).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+        first_scans: Option<u64>,
         /// Disable loop closure (local tracking only).
         #[arg(long)]
         no_loop_closure: bool,
@@ -667,6 +671,7 @@ fn main() -> ExitCode {
             no_return_from_m,
             relations,
             reference,
+            first_scans,
             no_loop_closure,
             no_chain_closure,
             no_refinement,
@@ -697,6 +702,7 @@ fn main() -> ExitCode {
                 odometry: odometry == "log",
                 no_return_from_m,
                 slam,
+                first_scans: first_scans.map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
             })
         }
         Command::Nees {

@@ -50,6 +50,8 @@ pub struct SlamReplayOptions {
     pub reference: Option<PathBuf>,
     /// The SLAM's options.
     pub slam: SlamOptions,
+    /// Only the log's first this many scans (a short run); `None` takes them all.
+    pub first_scans: Option<usize>,
 }
 
 /// `summary.json`.
@@ -127,7 +129,10 @@ pub fn replay_carmen_slam(
     options: &SlamReplayOptions,
 ) -> Result<SlamReplaySummary, SlamReplayError> {
     let log = CarmenLog::read(&options.log)?;
-    let lasers: Vec<&LaserRecord> = log.lasers().collect();
+    let lasers: Vec<&LaserRecord> = log
+        .lasers()
+        .take(options.first_scans.unwrap_or(usize::MAX))
+        .collect();
     if lasers.is_empty() {
         return Err(SlamReplayError::NoScans(options.log.clone()));
     }
