@@ -1,4 +1,4 @@
-//! Consecutive-scan constraints that know what the alignment could not see.
+//! Pose-graph constraints that know what their alignment could not see.
 //!
 //! In a corridor, point-to-line ICP pins the scan across the corridor and in rotation, but
 //! along the corridor only the few beams on a far wall or a door frame hold it, and those may
@@ -12,7 +12,9 @@
 //! below [`SlamOptions::degenerate_information_ratio`], the constraint's covariance grows
 //! along that direction by [`SlamOptions::degenerate_sigma_m`]² (degeneracy detection after
 //! Zhang, Kaess and Singh 2016, "On Degeneracy of Optimization-based State Estimation
-//! Problems"); elsewhere it stays at [`SlamOptions::odometry_sigma`].
+//! Problems"); elsewhere it stays at [`SlamOptions::odometry_sigma`] for scan-to-scan
+//! constraints and [`SlamOptions::loop_closure_sigma`] for loop closures. A loop closure
+//! found along a corridor is as blind along it as local tracking.
 //!
 //! [`IcpMatch::information`]: super::icp::IcpMatch::information
 

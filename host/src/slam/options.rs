@@ -32,10 +32,10 @@ pub struct SlamOptions {
     pub refinement: RefinementOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
     pub odometry_sigma: [f64; 2],
-    /// A consecutive-scan constraint is left almost free along the direction of translation
-    /// in which the alignment that placed the scan holds less than this fraction of the
-    /// information it holds across it (a corridor's axis; [`super::degeneracy`]). 0 keeps
-    /// every constraint at [`Self::odometry_sigma`].
+    /// A constraint (scan to scan, loop closure, final refinement) is left almost free along
+    /// the direction of translation in which its alignment holds less than this fraction of
+    /// the information it holds across it (a corridor's axis; [`super::degeneracy`]). 0
+    /// keeps every constraint at [`Self::odometry_sigma`] or [`Self::loop_closure_sigma`].
     pub degenerate_information_ratio: f64,
     /// Standard deviation added to such a constraint along that direction, metres.
     pub degenerate_sigma_m: f64,
@@ -223,7 +223,9 @@ pub struct ChainClosureOptions {
     /// Scans taken on each side of the nearest earlier scan.
     pub half_length_scans: usize,
     /// The search and its acceptance. Its `max_distance_m` bounds the distance to the
-    /// nearest earlier scan, and its `min_scans_apart` how recent that scan may be.
+    /// nearest earlier scan, and its `min_scans_apart` how recent that scan may be; its
+    /// `enabled` and `every_n_scans` are not used (chains are searched on the scans loop
+    /// closure searches, and on every scan while a chain closure waits).
     pub search: LoopClosureOptions,
 }
 
