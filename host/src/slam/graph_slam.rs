@@ -83,7 +83,18 @@ pub struct GraphSlam {
     chain_pending_until: usize,
     /// Every scan added (trusted beams), for the chains.
     scans: Vec<Scan>,
+    /// The chain searched last, kept while the graph holds its scans where they were.
+    last_chain: Option<DrawnChain>,
     stats: SlamStats,
+}
+
+/// A chain of earlier scans drawn into a submap, with its matcher reference.
+#[derive(Debug)]
+struct DrawnChain {
+    /// `(centre, first, last)` node and the optimisations run when it was drawn.
+    key: ([usize; 3], usize),
+    submap: SlamSubmap,
+    reference: Scan,
 }
 
 impl GraphSlam {
@@ -105,6 +116,7 @@ impl GraphSlam {
             chain_confirmation: ClosureConfirmation::new(options.chain_closure.search.confirmation),
             chain_pending_until: 0,
             scans: Vec::new(),
+            last_chain: None,
             stats: SlamStats::default(),
             options,
         })
@@ -272,20 +284,36 @@ impl GraphSlam {
         let first = centre.saturating_sub(chain.half_length_scans);
         let last = (centre + chain.half_length_scans).min(last_chained);
         let frame = poses[centre];
-        let mut submap =
-            SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
-        for (chained, (scan, &pose)) in self.scans[first..=last]
-            .iter()
-            .zip(&poses[first..=last])
-            .enumerate()
+        // Only an optimisation moves earlier scans: until then, the same chain draws the same.
+        let key = ([centre, first, last], self.stats.optimizations);
+        if self
+            .last_chain
+            .as_ref()
+            .is_none_or(|drawn| drawn.key != key)
         {
-            submap.insert(first + chained, scan, pose);
+            let mut submap =
+                SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
+            for (chained, (scan, &pose)) in self.scans[first..=last]
+                .iter()
+                .zip(&poses[first..=last])
+                .enumerate()
+            {
+                submap.insert(first + chained, scan, pose);
+            }
+            submap.finish();
+            let reference = submap.reference_scan();
+            self.last_chain = Some(DrawnChain {
+                key,
+                submap,
+                reference,
+            });
         }
-        submap.finish();
-        let reference = submap.reference_scan();
+        let drawn = self.last_chain.as_ref()?;
         self.stats.chain_closure_searches += 1;
         let guess = frame.inverse() * pose_in_map;
-        let closure = self.chain_closer.search(&submap, &reference, scan, guess)?;
+        let closure = self
+            .chain_closer
+            .search(&drawn.submap, &drawn.reference, scan, guess)?;
         Some(FoundClosure {
             submap_first_node: centre,
             node,
