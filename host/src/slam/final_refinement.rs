@@ -92,7 +92,7 @@ fn may_fit(
             let range_m = p[0].hypot(p[1]);
             let point = guess.transform_point(**p);
             let reach_m = reach_m + range_m * refinement.max_correction_rad;
-            submap.points().nearest_within(point, reach_m).is_some()
+            submap.points().any_within(point, reach_m)
         })
         .count();
     near as f64 / points_in_robot.len() as f64 >= loop_closure.min_inlier_fraction

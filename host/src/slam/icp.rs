@@ -8,10 +8,15 @@
 //! distance, so a guess some decimetres off is pulled in first and the last stage uses only
 //! close pairs. The result carries the fraction of end points that then lie within
 //! [`IcpOptions::inlier_m`] of the map: how well the scan fits.
+//!
+//! Between iterations an end point moves by a fraction of a millimetre, so each one remembers
+//! its nearest map point and how far every other map point lay ([`Correspondence`]); while
+//! the remembered point is still nearer than any other can have come, it is the nearest
+//! without a search. The pairs are exactly those a search would make.
 
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
-use super::point_map::PointMap;
+use super::point_map::{MapPoint, PointMap};
 use crate::scan_match::{Pose2, wrap_angle_rad};
 
 /// How the alignment runs.
@@ -83,9 +88,26 @@ pub fn align(
         return None;
     }
     let mut pose = guess;
+    // Searched out to this distance, a remembered answer serves every stage.
+    let search_m = options
+        .stages_m
+        .iter()
+        .copied()
+        .chain([options.inlier_m])
+        .fold(0.0, f64::max)
+        + SEARCH_MARGIN_M;
+    let mut correspondences = vec![Correspondence::default(); points_in_robot.len()];
     for &stage_m in &options.stages_m {
         for _ in 0..options.iterations_per_stage {
-            let step = gauss_newton_step(map, points_in_robot, pose, stage_m, options)?;
+            let step = gauss_newton_step(
+                map,
+                points_in_robot,
+                &mut correspondences,
+                pose,
+                stage_m,
+                search_m,
+                options,
+            )?;
             pose = Pose2::new(
                 pose.x_m + step[0],
                 pose.y_m + step[1],
@@ -99,9 +121,9 @@ pub fn align(
     let (mut inliers, mut sum_sq) = (0usize, 0.0);
     let mut information = Matrix3::zeros();
     let (sin, cos) = pose.theta_rad.sin_cos();
-    for &p in points_in_robot {
+    for (&p, correspondence) in points_in_robot.iter().zip(&mut correspondences) {
         let moved = pose.transform_point(p);
-        if let Some(q) = map.nearest_within(moved, options.inlier_m) {
+        if let Some(q) = correspondence.nearest_within(map, moved, options.inlier_m, search_m) {
             let [qx, qy] = q.point;
             let [nx, ny] = q.normal;
             let residual = nx * (moved[0] - qx) + ny * (moved[1] - qy);
@@ -122,6 +144,61 @@ pub fn align(
         },
         information,
     })
+}
+
+/// How much farther than the largest correspondence distance an end point's nearest map
+/// points are searched, metres: what it may move before it must search again.
+const SEARCH_MARGIN_M: f64 = 0.05;
+
+/// An end point's nearest map point, as last searched.
+#[derive(Clone, Copy, Debug, Default)]
+struct Correspondence {
+    /// Where the end point was then, in the map frame; `None` before the first search.
+    searched_at: Option<[f64; 2]>,
+    /// The nearest map point within the search distance then, by number.
+    nearest: Option<usize>,
+    /// Every other map point lay at least this far then, metres.
+    others_m: f64,
+}
+
+impl Correspondence {
+    /// The map point nearest to `moved` (the end point's position now) if it lies within
+    /// `max_distance_m`: [`PointMap::nearest_within`], searching out to `search_m` only when
+    /// the last answer may no longer hold.
+    fn nearest_within<'a>(
+        &mut self,
+        map: &'a PointMap,
+        moved: [f64; 2],
+        max_distance_m: f64,
+        search_m: f64,
+    ) -> Option<&'a MapPoint> {
+        let max_sq = max_distance_m * max_distance_m;
+        if let Some(then) = self.searched_at {
+            // No other point can have come nearer than this (less a hair for rounding).
+            let (dx, dy) = (moved[0] - then[0], moved[1] - then[1]);
+            let others_m = self.others_m - (dx * dx + dy * dy).sqrt() - 1e-9;
+            match self.nearest.and_then(|index| map.points().get(index)) {
+                Some(q) => {
+                    let (dx, dy) = (q.point[0] - moved[0], q.point[1] - moved[1]);
+                    let distance_sq = dx * dx + dy * dy;
+                    if others_m > 0.0 && distance_sq < others_m * others_m {
+                        return (distance_sq <= max_sq).then_some(q);
+                    }
+                }
+                None if others_m > max_distance_m => return None,
+                None => {}
+            }
+        }
+        let (nearest, others_sq) = map.nearest_two_within(moved, search_m);
+        *self = Correspondence {
+            searched_at: Some(moved),
+            nearest,
+            others_m: others_sq.sqrt(),
+        };
+        let q = map.points().get(nearest?)?;
+        let (dx, dy) = (q.point[0] - moved[0], q.point[1] - moved[1]);
+        (dx * dx + dy * dy <= max_sq).then_some(q)
+    }
 }
 
 /// The derivative of the distance of `point_in_robot`, moved by a pose with heading
@@ -154,20 +231,22 @@ fn huber_weight(residual_m: f64, huber_m: f64) -> f64 {
 fn gauss_newton_step(
     map: &PointMap,
     points_in_robot: &[[f64; 2]],
+    correspondences: &mut [Correspondence],
     pose: Pose2,
     max_distance_m: f64,
+    search_m: f64,
     options: &IcpOptions,
 ) -> Option<[f64; 3]> {
     let (sin, cos) = pose.theta_rad.sin_cos();
     let mut hessian = Matrix3::<f64>::zeros();
     let mut gradient = Vector3::<f64>::zeros();
     let mut pairs = 0usize;
-    for &[px, py] in points_in_robot {
+    for (&[px, py], correspondence) in points_in_robot.iter().zip(correspondences) {
         let moved = [
             cos * px - sin * py + pose.x_m,
             sin * px + cos * py + pose.y_m,
         ];
-        let Some(q) = map.nearest_within(moved, max_distance_m) else {
+        let Some(q) = correspondence.nearest_within(map, moved, max_distance_m, search_m) else {
             continue;
         };
         let [qx, qy] = q.point;
@@ -192,6 +271,7 @@ fn gauss_newton_step(
 mod tests {
     use super::super::point_map::{PointMapOptions, points_with_normals};
     use super::*;
+    use crate::scan_match::Scan;
     use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
 
     #[test]
@@ -223,6 +303,39 @@ mod tests {
         assert!(error.x_m.hypot(error.y_m) < 0.005, "{error:?}");
         assert!(error.theta_rad.abs() < 0.1f64.to_radians(), "{error:?}");
         assert!(found.inlier_fraction > 0.8, "{found:?}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn prop_a_remembered_correspondence_is_what_a_search_finds(
+            walls in proptest::collection::vec((-3.0..3.0f64, -3.0..3.0f64, 0.0..3.2f64), 1..6),
+            start in (-3.0..3.0f64, -3.0..3.0f64),
+            moves in proptest::collection::vec(
+                (-0.05..0.05f64, -0.05..0.05f64, 0.0..0.7f64, proptest::bool::weighted(0.1)),
+                1..40,
+            ),
+        ) {
+            // Short walls of points 2 cm apart, their normals left aside.
+            let mut map = PointMap::new(PointMapOptions::default());
+            let points: Vec<Option<[f64; 2]>> = walls
+                .iter()
+                .flat_map(|&(x, y, angle)| {
+                    (0..20).map(move |k| {
+                        let along = 0.02 * f64::from(k);
+                        Some([x + along * angle.cos(), y + along * angle.sin()])
+                    })
+                })
+                .collect();
+            map.insert_scan(&Scan::from_points_in_robot(points), Pose2::IDENTITY);
+            let mut correspondence = Correspondence::default();
+            let mut at = [start.0, start.1];
+            for (dx, dy, max_m, jump) in moves {
+                at = if jump { [at[1] * 0.9, at[0]] } else { [at[0] + dx, at[1] + dy] };
+                let searched = map.nearest_within(at, max_m).map(|q| q.point);
+                let remembered = correspondence.nearest_within(&map, at, max_m, 0.75);
+                proptest::prop_assert_eq!(remembered.map(|q| q.point), searched);
+            }
+        }
     }
 
     #[test]

@@ -34,6 +34,7 @@ pub mod icp;
 mod local_tracker;
 mod loop_closer;
 mod options;
+pub mod point_grid;
 pub mod point_map;
 mod recent_scans;
 mod slam_submap;

@@ -1,5 +1,5 @@
 //! A submap's scan end points as a point cloud with surface normals, indexed for
-//! nearest-neighbour queries with a k-d tree ([`kiddo`]).
+//! nearest-neighbour queries on a uniform grid ([`PointGrid`]).
 //!
 //! Each end point gets the normal of the surface it lies on from its neighbouring beams in the
 //! same scan (the direction of least spread of the points around it); points without a
@@ -8,9 +8,13 @@
 //! [`PointMapOptions::min_spacing_m`] to one already kept is dropped, so revisiting the same wall
 //! does not grow the map.
 
-use kiddo::{KdTree, SquaredEuclidean};
-
+use super::point_grid::PointGrid;
 use crate::scan_match::{Pose2, Scan};
+
+/// Cell size of the grid that indexes the points, metres: about three points of a wall a
+/// cell at the default spacing, and the last ICP stages' correspondence distances within
+/// the query's cell and its neighbours.
+const INDEX_CELL_M: f64 = 0.2;
 
 /// How end points become map points.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,8 +59,8 @@ pub struct MapPoint {
 #[derive(Clone, Debug)]
 pub struct PointMap {
     options: PointMapOptions,
-    tree: KdTree<f64, 2>,
-    /// Indexed by the tree's items.
+    index: PointGrid,
+    /// In the order of the index's points.
     points: Vec<MapPoint>,
 }
 
@@ -65,7 +69,7 @@ impl PointMap {
     pub fn new(options: PointMapOptions) -> Self {
         PointMap {
             options,
-            tree: KdTree::new(),
+            index: PointGrid::new(INDEX_CELL_M),
             points: Vec::new(),
         }
     }
@@ -83,21 +87,29 @@ impl PointMap {
             let (sin, cos) = map_from_robot.theta_rad.sin_cos();
             let [nx, ny] = normal_in_robot;
             let normal = [cos * nx - sin * ny, sin * nx + cos * ny];
-            self.tree.add(&point, self.points.len() as u64);
+            self.index.push(point);
             self.points.push(MapPoint { point, normal });
         }
     }
 
     /// The kept point nearest to `point`, within `max_distance_m`.
     pub fn nearest_within(&self, point: [f64; 2], max_distance_m: f64) -> Option<&MapPoint> {
-        if self.points.is_empty() {
-            return None;
-        }
-        let nearest = self.tree.nearest_one::<SquaredEuclidean>(&point);
-        if nearest.distance > max_distance_m * max_distance_m {
-            return None;
-        }
-        self.points.get(usize::try_from(nearest.item).ok()?)
+        let (index, _) = self.index.nearest_within(point, max_distance_m)?;
+        self.points.get(index)
+    }
+
+    /// The kept point nearest to `point` within `max_distance_m`, by its number in
+    /// [`Self::points`], and how far every other kept point lies at least (squared, capped at
+    /// `max_distance_m²`): see [`PointGrid::nearest_two_within`].
+    pub fn nearest_two_within(&self, point: [f64; 2], max_distance_m: f64) -> (Option<usize>, f64) {
+        let (nearest, others_sq) = self.index.nearest_two_within(point, max_distance_m);
+        (nearest.map(|(index, _)| index), others_sq)
+    }
+
+    /// Whether a kept point lies within `max_distance_m` of `point`: [`Self::nearest_within`]
+    /// `.is_some()`, found faster.
+    pub fn any_within(&self, point: [f64; 2], max_distance_m: f64) -> bool {
+        self.index.any_within(point, max_distance_m)
     }
 
     /// Every kept point.

@@ -119,7 +119,7 @@ impl SlamSubmap {
             let range_m = p[0].hypot(p[1]);
             range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
-            let inlier = self.points.nearest_within(point, inlier_m).is_some();
+            let inlier = self.points.any_within(point, inlier_m);
             if inlier {
                 inliers += 1;
                 inlier_range_m += range_m;
