@@ -16,9 +16,12 @@
 //!   an unblocked pixel of the level-`k` max-pooled grid ([`PrecomputationGrids`]) is uncovered for
 //!   every translation of the block, so their count is a lower bound on `uncovered` over the
 //!   block (pixels clipped by the raster count as blocked, which keeps the bound admissible).
-//! * Blocks are explored best bound first. A block is skipped only when its
-//!   `(bound, lowest table number)` is not below the best `(uncovered, table number)` found so
-//!   far, so no skipped candidate could have scored lower or tied with a lower table number.
+//! * Blocks wait in one queue, lowest `(bound, lowest table number)` first, and the block at
+//!   its head is split into its four children until that key is not below the best
+//!   `(uncovered, table number)` scored so far. Every block left then holds only candidates that
+//!   score higher or tie with a higher table number. The guess is scored before anything else,
+//!   so that a good guess keeps most blocks out of the queue from the start. Taking the lowest
+//!   bound first splits no block that a search in any other order could have ruled out.
 //!
 //! # Trade-off against the reference
 //!
@@ -26,6 +29,8 @@
 //! rotation once, keeps a few max-pooled copies of the reference, and evaluates a candidate
 //! with a handful of word operations per occupied row, visiting only the candidates whose block
 //! bounds cannot be ruled out. It costs more code and some memory per match.
+
+use std::collections::BinaryHeap;
 
 use super::bit_grid::BitGrid;
 use super::pose::Pose2;
@@ -143,23 +148,31 @@ impl ScanMatcher for FastMatcher {
             rotated_scans: &rotated_scans,
             best: (u32::MAX, usize::MAX),
             candidates_evaluated: 0,
+            guess_index: None,
+            queue: BinaryHeap::new(),
         };
+        // The guess itself first: a real candidate, so that its score bounds the search from
+        // the start without changing the answer.
+        search.push(Block {
+            level: 0,
+            rotation_index: table.rotation_half_steps,
+            y_index: table.y_half_steps,
+            x_index: table.x_half_steps,
+        });
         let block_side = 1usize << depth;
-        let mut top_blocks = Vec::new();
         for rotation_index in 0..table.num_rotations() as u32 {
             for y_index in (0..table.num_y()).step_by(block_side) {
                 for x_index in (0..table.num_x()).step_by(block_side) {
-                    let block = Block {
+                    search.push(Block {
                         level: depth,
                         rotation_index,
                         y_index: y_index as u32,
                         x_index: x_index as u32,
-                    };
-                    top_blocks.push(search.bound(block));
+                    });
                 }
             }
         }
-        search.explore(top_blocks);
+        search.explore();
 
         let (uncovered_px, table_index) = search.best;
         MatchResult::for_table_entry(
@@ -191,6 +204,27 @@ struct BoundedBlock {
     key: (u32, usize),
 }
 
+impl PartialEq for BoundedBlock {
+    fn eq(&self, other: &Self) -> bool {
+        self.key == other.key
+    }
+}
+
+impl Eq for BoundedBlock {}
+
+impl PartialOrd for BoundedBlock {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for BoundedBlock {
+    /// Reversed, so that the queue's greatest is the lowest key.
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.key.cmp(&self.key)
+    }
+}
+
 /// State of one branch-and-bound search.
 struct Search<'a> {
     table: &'a SearchTable,
@@ -199,43 +233,52 @@ struct Search<'a> {
     /// `(uncovered pixels, table number)` of the best candidate so far.
     best: (u32, usize),
     candidates_evaluated: usize,
+    /// The table number of the guess, once scored (it is scored first).
+    guess_index: Option<usize>,
+    /// Blocks waiting, lowest key first.
+    queue: BinaryHeap<BoundedBlock>,
 }
 
 impl Search<'_> {
-    /// Bounds `block` from below; at level 0 the bound is the candidate's exact `uncovered`.
-    fn bound(&mut self, block: Block) -> BoundedBlock {
-        let offset_px = self.table.offset_px(block.x_index, block.y_index);
-        let uncovered = self.rotated_scans[block.rotation_index as usize]
-            .uncovered_px(self.grids.level(block.level), offset_px);
-        if block.level == 0 {
-            self.candidates_evaluated += 1;
-        }
+    /// Bounds `block` from below (at level 0 the bound is the candidate's exact `uncovered`)
+    /// and queues it unless it cannot beat the best candidate scored so far.
+    fn push(&mut self, block: Block) {
         let lowest_index = self.table.index_of(Candidate {
             rotation_index: block.rotation_index,
             y_index: block.y_index,
             x_index: block.x_index,
         });
-        BoundedBlock {
-            block,
-            key: (uncovered, lowest_index),
+        if block.level == 0 {
+            if self.guess_index == Some(lowest_index) {
+                // Scored first of all.
+                return;
+            }
+            if self.guess_index.is_none() {
+                self.guess_index = Some(lowest_index);
+            }
+        }
+        let offset_px = self.table.offset_px(block.x_index, block.y_index);
+        let uncovered = self.rotated_scans[block.rotation_index as usize]
+            .uncovered_px(self.grids.level(block.level), offset_px);
+        let key = (uncovered, lowest_index);
+        if block.level == 0 {
+            self.candidates_evaluated += 1;
+            self.best = self.best.min(key);
+        }
+        if key <= self.best {
+            self.queue.push(BoundedBlock { block, key });
         }
     }
 
-    /// Explores `blocks` best bound first, skipping those that cannot beat the best so far.
-    fn explore(&mut self, mut blocks: Vec<BoundedBlock>) {
-        blocks.sort_unstable_by_key(|b| b.key);
-        for bounded in blocks {
-            if bounded.key >= self.best {
-                // Sorted: every later block is ruled out too.
-                break;
+    /// Takes blocks lowest key first and splits them, until the lowest key left is not below
+    /// the best candidate scored (at the latest, when that candidate comes first itself).
+    fn explore(&mut self) {
+        while let Some(BoundedBlock { block, key }) = self.queue.pop() {
+            if key >= self.best {
+                return;
             }
-            let block = bounded.block;
-            if block.level == 0 {
-                self.best = bounded.key;
-                continue;
-            }
+            // Candidates enter `best` when scored, so this block has children.
             let half = 1u32 << (block.level - 1);
-            let mut children = Vec::with_capacity(4);
             for y_index in [block.y_index, block.y_index + half] {
                 for x_index in [block.x_index, block.x_index + half] {
                     if y_index as usize >= self.table.num_y()
@@ -243,15 +286,14 @@ impl Search<'_> {
                     {
                         continue;
                     }
-                    children.push(self.bound(Block {
+                    self.push(Block {
                         level: block.level - 1,
                         rotation_index: block.rotation_index,
                         y_index,
                         x_index,
-                    }));
+                    });
                 }
             }
-            self.explore(children);
         }
     }
 }
