@@ -97,20 +97,22 @@ impl FastMatcher {
     }
 }
 
-impl ScanMatcher for FastMatcher {
-    /// Finds the reference matcher's answer (lowest score, then lowest table number) around
-    /// `initial_reference_from_new`.
-    fn match_scans(
-        &self,
-        reference: &Scan,
-        new: &Scan,
-        initial_reference_from_new: Pose2,
-    ) -> Result<MatchResult, ScanMatchError> {
-        check_guess(initial_reference_from_new)?;
-        let raster = &self.raster;
-        let table = &self.table;
-        let depth = self.branch_and_bound_depth;
+/// A reference scan drawn and max-pooled for one [`FastMatcher`]: what its searches need of
+/// the reference. Made once by [`FastMatcher::prepare`], it serves every search against the
+/// same reference ([`FastMatcher::match_prepared`]), as a finished submap's does.
+#[derive(Clone, Debug)]
+pub struct PreparedReference {
+    /// The raster, translation step and depth it was drawn for.
+    made_for: (RasterOptions, u32, u32),
+    grids: PrecomputationGrids,
+    /// Pixels of the reference drawing.
+    reference_px: u32,
+}
 
+impl FastMatcher {
+    /// Draws `reference` into this matcher's raster and pools it for its search.
+    pub fn prepare(&self, reference: &Scan) -> PreparedReference {
+        let raster = &self.raster;
         // The reference drawing, clipped to the raster, and its max-pooled levels.
         let width = raster.width_px as usize;
         let height = raster.height_px as usize;
@@ -124,9 +126,38 @@ impl ScanMatcher for FastMatcher {
                 reference_grid.set(column, row);
             }
         });
-        let reference_px = reference_grid.count_ones();
-        let grids =
-            PrecomputationGrids::new(&reference_grid, table.translation_step_px as usize, depth);
+        let step_px = self.table.translation_step_px;
+        let depth = self.branch_and_bound_depth;
+        PreparedReference {
+            made_for: (*raster, step_px, depth),
+            reference_px: reference_grid.count_ones(),
+            grids: PrecomputationGrids::new(&reference_grid, step_px as usize, depth),
+        }
+    }
+
+    /// [`ScanMatcher::match_scans`] against a reference this matcher prepared.
+    ///
+    /// # Errors
+    ///
+    /// [`ScanMatchError::InvalidOptions`] if another matcher (raster, translation step or
+    /// depth) prepared `reference`, and as [`ScanMatcher::match_scans`].
+    pub fn match_prepared(
+        &self,
+        reference: &PreparedReference,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+    ) -> Result<MatchResult, ScanMatchError> {
+        check_guess(initial_reference_from_new)?;
+        let raster = &self.raster;
+        let table = &self.table;
+        let depth = self.branch_and_bound_depth;
+        if reference.made_for != (*raster, table.translation_step_px, depth) {
+            return Err(ScanMatchError::InvalidOptions(
+                "reference prepared by another matcher",
+            ));
+        }
+        let grids = &reference.grids;
+        let reference_px = reference.reference_px;
 
         // The new scan, drawn once per rotation.
         let new_polyline = Polyline::new(new, raster.max_gap_m);
@@ -144,7 +175,7 @@ impl ScanMatcher for FastMatcher {
 
         let mut search = Search {
             table,
-            grids: &grids,
+            grids,
             rotated_scans: &rotated_scans,
             best: (u32::MAX, usize::MAX),
             candidates_evaluated: 0,
@@ -183,6 +214,20 @@ impl ScanMatcher for FastMatcher {
             reference_px + uncovered_px,
             search.candidates_evaluated,
         )
+    }
+}
+
+impl ScanMatcher for FastMatcher {
+    /// Finds the reference matcher's answer (lowest score, then lowest table number) around
+    /// `initial_reference_from_new`.
+    fn match_scans(
+        &self,
+        reference: &Scan,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+    ) -> Result<MatchResult, ScanMatchError> {
+        check_guess(initial_reference_from_new)?;
+        self.match_prepared(&self.prepare(reference), new, initial_reference_from_new)
     }
 }
 
@@ -455,6 +500,33 @@ mod tests {
         // Every candidate ties below the first one found, so all 45 get scored.
         assert!(result.candidates_evaluated <= table.len());
         assert_eq!(result.candidate.rotation_index, 1);
+    }
+
+    #[test]
+    fn test_a_prepared_reference_serves_its_own_matcher_only() {
+        let walls = polygon_walls(&[[-3.0, -2.0], [4.0, -2.5], [3.0, 3.0], [-2.0, 2.0]]);
+        let cast = |pose| cast_scan(&walls, pose, -PI, 0.05, 125, 8.0);
+        let (reference, new) = (cast(Pose2::IDENTITY), cast(Pose2::new(0.3, -0.2, 0.1)));
+        let table = SearchTable {
+            x_half_steps: 5,
+            y_half_steps: 5,
+            translation_step_px: 1,
+            rotation_half_steps: 4,
+            rotation_step_rad: 0.03,
+        };
+        let matcher = FastMatcher::new(RasterOptions::default(), table).unwrap();
+        let prepared = matcher.prepare(&reference);
+        for guess in [Pose2::IDENTITY, Pose2::new(0.2, -0.1, 0.05)] {
+            assert_eq!(
+                matcher.match_prepared(&prepared, &new, guess).unwrap(),
+                matcher.match_scans(&reference, &new, guess).unwrap()
+            );
+        }
+        let deeper = matcher.clone().with_branch_and_bound_depth(3);
+        assert!(matches!(
+            deeper.match_prepared(&prepared, &new, Pose2::IDENTITY),
+            Err(ScanMatchError::InvalidOptions(_))
+        ));
     }
 
     #[test]

@@ -28,7 +28,7 @@ pub mod search;
 pub mod synthetic;
 
 pub use bresenham::BresenhamLine;
-pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH};
+pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH, PreparedReference};
 pub use incremental::{IncrementalMatch, match_incremental};
 pub use pose::{Pose2, wrap_angle_rad};
 pub use reference_matcher::ReferenceMatcher;

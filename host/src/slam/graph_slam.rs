@@ -11,7 +11,7 @@ use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{Edge, NodeId, PoseGraph, RobustKernel};
-use crate::scan_match::{Pose2, Scan, ScanMatchError};
+use crate::scan_match::{Pose2, PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -71,7 +71,7 @@ pub struct GraphSlam {
     graph: PoseGraph,
     poses_in_local: Vec<Pose2>,
     /// Finished submaps with their matcher references.
-    finished: Vec<(SlamSubmap, Scan)>,
+    finished: Vec<(SlamSubmap, PreparedReference)>,
     /// `map_from_local` as of the last optimisation.
     map_from_local: Pose2,
     closures_since_optimization: usize,
@@ -94,7 +94,7 @@ struct DrawnChain {
     /// `(centre, first, last)` node and the optimisations run when it was drawn.
     key: ([usize; 3], usize),
     submap: SlamSubmap,
-    reference: Scan,
+    reference: PreparedReference,
 }
 
 impl GraphSlam {
@@ -149,7 +149,7 @@ impl GraphSlam {
         self.poses_in_local.push(tracked.pose_in_local);
         if let Some(submap) = tracked.finished_submap {
             self.stats.submaps += 1;
-            let reference = submap.reference_scan();
+            let reference = self.closer.prepare(&submap.reference_scan());
             self.finished.push((submap, reference));
         }
         let every = self.options.loop_closure.every_n_scans.max(1);
@@ -301,7 +301,7 @@ impl GraphSlam {
                 submap.insert(first + chained, scan, pose);
             }
             submap.finish();
-            let reference = submap.reference_scan();
+            let reference = self.chain_closer.prepare(&submap.reference_scan());
             self.last_chain = Some(DrawnChain {
                 key,
                 submap,

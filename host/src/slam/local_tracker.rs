@@ -30,7 +30,7 @@ use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
 use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatcher};
+use crate::scan_match::{FastMatcher, Pose2, Scan};
 
 /// What tracking made of one scan.
 #[derive(Clone, Debug)]
@@ -145,11 +145,12 @@ impl LocalTracker {
         if best.is_none_or(|a| a.fit.surface_fraction < local.min_surface_fraction) {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
+            let prepared = self.wide_search.prepare(&reference);
             let mut guesses = vec![last_pose];
             // Around the prediction, and around standing still: a robot that stops turning or
             // driving leaves the prediction a whole step off.
             for guess in [motion, Pose2::IDENTITY] {
-                if let Ok(found) = self.wide_search.match_scans(&reference, scan, guess) {
+                if let Ok(found) = self.wide_search.match_prepared(&prepared, scan, guess) {
                     guesses.push(last_pose * found.reference_from_new);
                 }
             }
@@ -238,22 +239,20 @@ impl LocalTracker {
         motion: Pose2,
     ) -> Vec<Pose2> {
         let mut guesses = Vec::new();
+        let recent = self.full_turn_search.prepare(recent_reference);
         for guess in [motion, Pose2::IDENTITY] {
-            if let Ok(found) = self
-                .full_turn_search
-                .match_scans(recent_reference, scan, guess)
-            {
+            if let Ok(found) = self.full_turn_search.match_prepared(&recent, scan, guess) {
                 guesses.push(last_pose * found.reference_from_new);
             }
         }
         if let Some(submap) = self.active.first() {
             let submap_in_local = submap.pose_in_local();
-            let submap_reference = submap.reference_scan();
+            let submap_reference = self.full_turn_search.prepare(&submap.reference_scan());
             for guess in [motion, Pose2::IDENTITY] {
                 let guess_in_submap = submap_in_local.inverse() * last_pose * guess;
                 if let Ok(found) =
                     self.full_turn_search
-                        .match_scans(&submap_reference, scan, guess_in_submap)
+                        .match_prepared(&submap_reference, scan, guess_in_submap)
                 {
                     guesses.push(submap_in_local * found.reference_from_new);
                 }

@@ -16,7 +16,7 @@ use super::icp::align;
 use super::options::LoopClosureOptions;
 use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::scan_match::{FastMatcher, Pose2, Scan, ScanMatchError, ScanMatcher};
+use crate::scan_match::{FastMatcher, Pose2, PreparedReference, Scan, ScanMatchError};
 
 /// A scan found in a submap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,19 +58,25 @@ impl LoopCloser {
         &self.options
     }
 
+    /// The matcher reference of a submap whose scans in its frame are `reference_scan`
+    /// ([`SlamSubmap::reference_scan`]), for [`Self::search`].
+    pub fn prepare(&self, reference_scan: &Scan) -> PreparedReference {
+        self.matcher.prepare(reference_scan)
+    }
+
     /// Searches `scan` in `submap` around `guess_in_submap` (`submap_from_robot`), with the
-    /// submap's matcher reference `reference` (its scans in its frame). Returns the match
-    /// when it is good enough.
+    /// submap's matcher reference `reference` ([`Self::prepare`]). Returns the match when it
+    /// is good enough.
     pub fn search(
         &self,
         submap: &SlamSubmap,
-        reference: &Scan,
+        reference: &PreparedReference,
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
         let found = self
             .matcher
-            .match_scans(reference, scan, guess_in_submap)
+            .match_prepared(reference, scan, guess_in_submap)
             .ok()?;
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         let icp = &self.options.icp;
