@@ -15,6 +15,7 @@
 pub mod daemon;
 pub mod ekf_slam;
 pub mod evaluation;
+mod floor;
 pub mod geoimage;
 pub mod georef;
 pub mod grid;

@@ -9,6 +9,8 @@
 //! Cell indices are signed: a point outside the grid still has an index, which
 //! [`MapLimits::contains`] then rejects. This lets callers decide how far a grid must grow.
 
+use crate::floor::floor;
+
 /// Index of a cell: `[column, row]`, column along x, row along y (row 0 at the bottom).
 pub type CellIndex = [i32; 2];
 
@@ -91,8 +93,8 @@ impl MapLimits {
     pub fn cell_index(&self, point_in_grid: [f64; 2]) -> CellIndex {
         let scale = 1.0 / self.resolution_m;
         [
-            ((point_in_grid[0] - self.lower_corner_in_grid[0]) * scale).floor() as i32,
-            ((point_in_grid[1] - self.lower_corner_in_grid[1]) * scale).floor() as i32,
+            floor((point_in_grid[0] - self.lower_corner_in_grid[0]) * scale) as i32,
+            floor((point_in_grid[1] - self.lower_corner_in_grid[1]) * scale) as i32,
         ]
     }
 

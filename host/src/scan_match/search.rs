@@ -46,6 +46,7 @@ use std::fmt;
 use super::bresenham::BresenhamLine;
 use super::pose::Pose2;
 use super::scan::Scan;
+use crate::floor::floor;
 
 /// Vertices farther than this many pixels from the raster origin (along either axis) are treated
 /// as beams without a return, which bounds the cost of drawing one line.
@@ -418,8 +419,8 @@ impl Polyline {
             .map(|&[x_m, y_m]| {
                 let x_in_reference_m = cos * x_m - sin * y_m + reference_from_new.x_m;
                 let y_in_reference_m = sin * x_m + cos * y_m + reference_from_new.y_m;
-                let column = (x_in_reference_m / raster.resolution_m).floor();
-                let row = (y_in_reference_m / raster.resolution_m).floor();
+                let column = floor(x_in_reference_m / raster.resolution_m);
+                let row = floor(y_in_reference_m / raster.resolution_m);
                 let limit = MAX_VERTEX_OFFSET_PX as f64;
                 // The range check also rejects NaN, so the casts below are exact.
                 ((-limit..=limit).contains(&column) && (-limit..=limit).contains(&row)).then(|| {

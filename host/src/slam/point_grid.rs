@@ -11,6 +11,8 @@
 //! The grid covers the cells its points fell in, with a margin, and grows when a point lands
 //! outside; cells outside it hold nothing.
 
+use crate::floor::floor;
+
 /// Marks the end of a cell's list.
 const NONE: u32 = u32::MAX;
 
@@ -219,13 +221,8 @@ impl PointGrid {
 
     /// The cell `point` lies in.
     fn cell_of(&self, point: [f64; 2]) -> [i64; 2] {
-        // `as` saturates, so a point far outside any grid still names a (distant) cell. The
-        // floor by hand: `f64::floor` is a library call on the baseline x86-64.
-        point.map(|coordinate| {
-            let cells = coordinate / self.cell_m;
-            let truncated = cells as i64;
-            truncated - i64::from((truncated as f64) > cells)
-        })
+        // `as` saturates, so a point far outside any grid still names a (distant) cell.
+        point.map(|coordinate| floor(coordinate / self.cell_m) as i64)
     }
 
     /// The position of `cell` in `head`, when the grid covers it.
