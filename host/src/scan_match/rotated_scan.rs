@@ -33,17 +33,17 @@ impl RotatedScan {
         // One spare word so that a window of `words_per_row + 1` words starting at any allowed
         // offset stays inside the row: `ceil((W + 2m) / 64) >= ceil(W / 64) + floor(2m / 64)`.
         let mut grid = BitGrid::new(width, height, 1);
+        let mut row_occupied = vec![false; height];
         let margin = margin_px.map(|m| m as i64);
         polyline.draw(vertices_px, [0, 0], |[column, row]| {
             let column = i64::from(column) + margin[0];
             let row = i64::from(row) + margin[1];
             if (0..width as i64).contains(&column) && (0..height as i64).contains(&row) {
                 grid.set(column as usize, row as usize);
+                row_occupied[row as usize] = true;
             }
         });
-        let occupied_rows = (0..height)
-            .filter(|&row| grid.row(row).iter().any(|&w| w != 0))
-            .collect();
+        let occupied_rows = (0..height).filter(|&row| row_occupied[row]).collect();
         RotatedScan {
             grid,
             margin_px,
