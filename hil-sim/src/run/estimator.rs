@@ -8,7 +8,7 @@
 //! replace it.
 
 use host::link::LaserScan;
-use host::scan_match::{FastMatcher, Pose2, RasterOptions, Scan, ScanMatcher, SearchTable};
+use host::scan_match::{FastMatcher, Pose2, PreparedReference, RasterOptions, Scan, SearchTable};
 use protocol::{GpsFixMsg, MeasuringMode, ScanMsg};
 
 /// A new keyframe after this much travel, m.
@@ -25,7 +25,9 @@ const MAX_TURN_RAD: f64 = 0.05;
 #[derive(Debug)]
 pub struct Estimator {
     matcher: Option<FastMatcher>,
-    keyframe: Option<(Scan, Pose2)>,
+    /// The last keyframe's pose in `map`, and its scan drawn for the matcher once for every
+    /// scan matched against it.
+    keyframe: Option<(Option<PreparedReference>, Pose2)>,
     /// The last scan's pose in the keyframe's frame.
     last_in_keyframe: Pose2,
     /// The motion between the last two scans.
@@ -56,14 +58,15 @@ impl Estimator {
     pub fn on_scan(&mut self, _t_s: f64, msg: &ScanMsg) -> [f64; 3] {
         let scan = to_scan(msg);
         let Some((keyframe, keyframe_pose)) = &self.keyframe else {
-            self.keyframe = Some((scan, Pose2::IDENTITY));
+            self.keyframe = Some((self.prepare(&scan), Pose2::IDENTITY));
             return pose_array(self.pose_in_map);
         };
         let guess = self.last_in_keyframe * self.motion;
         let matched = self
             .matcher
             .as_ref()
-            .and_then(|m| m.match_scans(keyframe, &scan, guess).ok())
+            .zip(keyframe.as_ref())
+            .and_then(|(m, keyframe)| m.match_prepared(keyframe, &scan, guess).ok())
             .map_or(guess, |r| r.reference_from_new);
         let motion = self.last_in_keyframe.inverse() * matched;
         // A robot moves a few centimetres between scans; a larger step is a bad match, and
@@ -79,10 +82,15 @@ impl Estimator {
         if matched.x_m.hypot(matched.y_m) > KEYFRAME_DISTANCE_M
             || matched.theta_rad.abs() > KEYFRAME_TURN_RAD
         {
-            self.keyframe = Some((scan, self.pose_in_map));
+            self.keyframe = Some((self.prepare(&scan), self.pose_in_map));
             self.last_in_keyframe = Pose2::IDENTITY;
         }
         pose_array(self.pose_in_map)
+    }
+
+    /// `scan` drawn as the matcher's reference, when there is a matcher.
+    fn prepare(&self, scan: &Scan) -> Option<PreparedReference> {
+        self.matcher.as_ref().map(|m| m.prepare(scan))
     }
 
     /// A GPS fix. Laser odometry does not use it.
