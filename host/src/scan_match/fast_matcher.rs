@@ -186,12 +186,18 @@ impl FastMatcher {
         };
         // The guess itself first: a real candidate, so that its score bounds the search from
         // the start without changing the answer.
-        search.push(Block {
-            level: 0,
+        let guess = Candidate {
             rotation_index: table.rotation_half_steps,
             y_index: table.y_half_steps,
             x_index: table.x_half_steps,
+        };
+        search.push(Block {
+            level: 0,
+            rotation_index: guess.rotation_index,
+            y_index: guess.y_index,
+            x_index: guess.x_index,
         });
+        search.guess_index = Some(table.index_of(guess));
         let block_side = 1usize << depth;
         for rotation_index in 0..table.num_rotations() as u32 {
             for y_index in (0..table.num_y()).step_by(block_side) {
@@ -295,14 +301,9 @@ impl Search<'_> {
             y_index: block.y_index,
             x_index: block.x_index,
         });
-        if block.level == 0 {
-            if self.guess_index == Some(lowest_index) {
-                // Scored first of all.
-                return;
-            }
-            if self.guess_index.is_none() {
-                self.guess_index = Some(lowest_index);
-            }
+        if block.level == 0 && self.guess_index == Some(lowest_index) {
+            // Scored first of all.
+            return;
         }
         let offset_px = self.table.offset_px(block.x_index, block.y_index);
         let uncovered = self.rotated_scans[block.rotation_index as usize]
