@@ -78,10 +78,7 @@ impl PointMap {
     pub fn insert_scan(&mut self, scan: &Scan, map_from_robot: Pose2) {
         for (point_in_robot, normal_in_robot) in points_with_normals(scan, &self.options) {
             let point = map_from_robot.transform_point(point_in_robot);
-            if self
-                .nearest_within(point, self.options.min_spacing_m)
-                .is_some()
-            {
+            if self.any_within(point, self.options.min_spacing_m) {
                 continue;
             }
             let (sin, cos) = map_from_robot.theta_rad.sin_cos();
