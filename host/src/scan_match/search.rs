@@ -451,7 +451,12 @@ impl Polyline {
                 continue;
             }
             if let Some(Some(next)) = vertices_px.get(i + 1) {
-                BresenhamLine::new(from, shift(*next)).for_each(&mut set_pixel);
+                // A line to the same or a neighbouring pixel is only its two ends, and the
+                // next vertex is drawn as a vertex of its own.
+                let gap_px = (next[0] - vertex[0]).abs().max((next[1] - vertex[1]).abs());
+                if gap_px > 1 {
+                    BresenhamLine::new(from, shift(*next)).for_each(&mut set_pixel);
+                }
             }
         }
     }
@@ -521,6 +526,40 @@ mod tests {
         let mut pixels = Vec::new();
         polyline.draw(&vertices, [0, 1], |p| pixels.push(p));
         assert_eq!(pixels, vec![[4, 5], [4, 5], [5, 5], [6, 4], [7, 4], [7, 4]]);
+    }
+
+    proptest::proptest! {
+        /// The drawing is every vertex and every line between joined vertices, whichever way
+        /// the short lines are taken.
+        #[test]
+        fn drawing_is_vertices_and_their_lines(
+            points in proptest::collection::vec(
+                proptest::option::weighted(0.9, (-3.0..3.0f64, -3.0..3.0f64)),
+                0..30,
+            ),
+            max_gap_m in 0.0..2.0f64,
+        ) {
+            let raster = RasterOptions { resolution_m: 0.1, ..RasterOptions::default() };
+            let scan = Scan::from_points_in_robot(
+                points.into_iter().map(|p| p.map(|(x, y)| [x, y])).collect(),
+            );
+            let polyline = Polyline::new(&scan, max_gap_m);
+            let vertices = polyline.vertices_px(Pose2::IDENTITY, &raster);
+            let mut drawn = std::collections::BTreeSet::new();
+            polyline.draw(&vertices, [2, -1], |p| {
+                drawn.insert(p);
+            });
+            let shift = |v: [i32; 2]| [v[0] + 2, v[1] - 1];
+            let mut expected = std::collections::BTreeSet::new();
+            for (i, vertex) in vertices.iter().enumerate() {
+                let Some(vertex) = vertex else { continue };
+                expected.insert(shift(*vertex));
+                if let (true, Some(Some(next))) = (polyline.joined_to_next[i], vertices.get(i + 1)) {
+                    expected.extend(BresenhamLine::new(shift(*vertex), shift(*next)));
+                }
+            }
+            proptest::prop_assert_eq!(drawn, expected);
+        }
     }
 
     #[test]
