@@ -25,6 +25,7 @@ mod reference_matcher;
 mod rotated_scan;
 mod scan;
 pub mod search;
+mod simd;
 pub mod synthetic;
 
 pub use bresenham::BresenhamLine;
