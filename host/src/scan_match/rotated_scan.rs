@@ -8,6 +8,7 @@
 
 use super::bit_grid::BitGrid;
 use super::search::{Polyline, RasterOptions};
+use super::simd::SimdLevel;
 
 /// One rotation's drawing of the new scan on the enlarged raster.
 #[derive(Clone, Debug)]
@@ -59,10 +60,20 @@ impl RotatedScan {
     ///
     /// `offset_px` must lie within the margins given to [`RotatedScan::new`].
     pub(crate) fn uncovered_px(&self, blocked: &BitGrid, offset_px: [i32; 2]) -> u32 {
+        self.uncovered_px_at(SimdLevel::detected(), blocked, offset_px)
+    }
+
+    /// [`Self::uncovered_px`] by the build for `level`, which must not exceed
+    /// [`SimdLevel::detected`].
+    #[inline]
+    fn uncovered_px_at(&self, level: SimdLevel, blocked: &BitGrid, offset_px: [i32; 2]) -> u32 {
+        debug_assert!(level <= SimdLevel::detected());
         #[cfg(target_arch = "x86_64")]
-        if super::simd::has_avx2() {
-            // SAFETY: the CPU has every feature the function is compiled for.
-            return unsafe { self.uncovered_px_avx2(blocked, offset_px) };
+        match level {
+            // SAFETY: the CPU has every feature these builds are compiled for.
+            SimdLevel::Avx512 => return unsafe { self.uncovered_px_avx512(blocked, offset_px) },
+            SimdLevel::Avx2 => return unsafe { self.uncovered_px_avx2(blocked, offset_px) },
+            SimdLevel::Baseline => {}
         }
         self.count_uncovered_px(blocked, offset_px)
     }
@@ -71,6 +82,13 @@ impl RotatedScan {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,popcnt,bmi2")]
     unsafe fn uncovered_px_avx2(&self, blocked: &BitGrid, offset_px: [i32; 2]) -> u32 {
+        self.count_uncovered_px(blocked, offset_px)
+    }
+
+    /// [`Self::uncovered_px`] compiled for AVX-512's vector popcount.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi2,avx512f,avx512vl,avx512bw,avx512vpopcntdq")]
+    unsafe fn uncovered_px_avx512(&self, blocked: &BitGrid, offset_px: [i32; 2]) -> u32 {
         self.count_uncovered_px(blocked, offset_px)
     }
 
@@ -92,18 +110,53 @@ impl RotatedScan {
         // for a zero shift without a branch.
         let first_word = first_column / 64;
         let shift = (first_column % 64) as u32;
-        let words = blocked.words_per_row();
-        let mut uncovered = 0;
-        for &row in &self.occupied_rows[start..end] {
-            // The spare word of `grid` keeps this window inside the row (see `new`).
-            let source = &self.grid.row(row)[first_word..first_word + words + 1];
-            let blocked_row = blocked.row(row - first_row);
-            for (pair, &blocked_word) in source.windows(2).zip(blocked_row) {
-                let word = (pair[0] >> shift) | ((pair[1] << 1) << (63 - shift));
-                uncovered += (word & !blocked_word).count_ones();
+        let rows = &self.occupied_rows[start..end];
+        match blocked.words_per_row() {
+            // The 256-pixel rasters of the SLAM and the benchmark: a row is one vector.
+            4 => self.count_rows::<4>(blocked, rows, first_row, first_word, shift),
+            words => {
+                let mut uncovered = 0;
+                for &row in rows {
+                    // The spare word of `grid` keeps this window inside the row (see `new`).
+                    let source = &self.grid.row(row)[first_word..first_word + words + 1];
+                    let blocked_row = blocked.row(row - first_row);
+                    for (pair, &blocked_word) in source.windows(2).zip(blocked_row) {
+                        let word = (pair[0] >> shift) | ((pair[1] << 1) << (63 - shift));
+                        uncovered += (word & !blocked_word).count_ones();
+                    }
+                }
+                uncovered
             }
         }
-        uncovered
+    }
+
+    /// The count of [`Self::count_uncovered_px`] over `rows` for rasters of `WORDS` words a
+    /// row, with fixed-size arrays the compiler can keep in registers.
+    #[inline(always)]
+    fn count_rows<const WORDS: usize>(
+        &self,
+        blocked: &BitGrid,
+        rows: &[usize],
+        first_row: usize,
+        first_word: usize,
+        shift: u32,
+    ) -> u32 {
+        let mut counts = [0u32; WORDS];
+        for &row in rows {
+            let source = self.grid.row(row);
+            let (Some(low), Some(high), Ok(blocked_row)) = (
+                source.get(first_word..first_word + WORDS),
+                source.get(first_word + 1..first_word + 1 + WORDS),
+                <&[u64; WORDS]>::try_from(blocked.row(row - first_row)),
+            ) else {
+                continue;
+            };
+            for i in 0..WORDS {
+                let word = (low[i] >> shift) | ((high[i] << 1) << (63 - shift));
+                counts[i] += (word & !blocked_row[i]).count_ones();
+            }
+        }
+        counts.iter().sum()
     }
 }
 
@@ -156,12 +209,16 @@ mod tests {
                     expected.len(),
                     "offset ({dx}, {dy})"
                 );
-                // The build for the target's baseline, whichever one `uncovered_px` runs.
-                assert_eq!(
-                    rotated.count_uncovered_px(&blocked, [dx, dy]) as usize,
-                    expected.len(),
-                    "offset ({dx}, {dy})"
-                );
+                // Every build this CPU runs, whichever one `uncovered_px` picks.
+                for level in [SimdLevel::Baseline, SimdLevel::Avx2, SimdLevel::Avx512] {
+                    if level <= SimdLevel::detected() {
+                        assert_eq!(
+                            rotated.uncovered_px_at(level, &blocked, [dx, dy]) as usize,
+                            expected.len(),
+                            "offset ({dx}, {dy}), {level:?}"
+                        );
+                    }
+                }
             }
         }
     }
