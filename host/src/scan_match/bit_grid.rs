@@ -27,7 +27,6 @@ impl BitGrid {
     }
 
     /// Width in pixels (without padding).
-    #[cfg(test)]
     pub(crate) fn width_px(&self) -> usize {
         self.width_px
     }

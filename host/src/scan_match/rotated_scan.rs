@@ -33,7 +33,7 @@ impl RotatedScan {
         let height = raster.height_px as usize + 2 * margin_px[1];
         // One spare word so that a window of `words_per_row + 1` words starting at any allowed
         // offset stays inside the row: `ceil((W + 2m) / 64) >= ceil(W / 64) + floor(2m / 64)`.
-        let mut grid = BitGrid::new(width, height, 1);
+        let mut grid = spare_grids::take(width, height, 1);
         let mut row_occupied = vec![false; height];
         let margin = margin_px.map(|m| m as i64);
         polyline.draw(vertices_px, [0, 0], |[column, row]| {
@@ -160,6 +160,73 @@ impl RotatedScan {
     }
 }
 
+impl Drop for RotatedScan {
+    /// Hands the grid, cleared, to the next drawing of the same shape.
+    fn drop(&mut self) {
+        let mut grid = std::mem::replace(&mut self.grid, BitGrid::new(0, 0, 0));
+        for &row in &self.occupied_rows {
+            grid.row_mut(row).fill(0);
+        }
+        spare_grids::give_back(grid);
+    }
+}
+
+/// Cleared grids of dropped drawings, per thread, for the next drawings of the same shape.
+///
+/// A match draws every rotation of the table (361 for a search over every heading) on a
+/// fresh grid and drops them all at its end. Allocating and zeroing them anew each time cost
+/// more than the drawing; a drawing sets few rows, so clearing those is cheap.
+mod spare_grids {
+    use super::BitGrid;
+    use std::cell::RefCell;
+
+    /// Grids kept per shape, enough for the largest table of rotations in use.
+    const MAX_PER_SHAPE: usize = 512;
+    /// Shapes kept; the least recently used one goes first.
+    const MAX_SHAPES: usize = 8;
+
+    type Shape = (usize, usize, usize);
+
+    thread_local! {
+        static SPARE: RefCell<Vec<(Shape, Vec<BitGrid>)>> = const { RefCell::new(Vec::new()) };
+    }
+
+    fn shape_of(grid: &BitGrid) -> Shape {
+        (grid.width_px(), grid.height_px(), grid.words_per_row())
+    }
+
+    /// An all-clear grid as [`BitGrid::new`] makes it, from the spares when one fits.
+    pub(super) fn take(width_px: usize, height_px: usize, spare_words: usize) -> BitGrid {
+        let shape = (width_px, height_px, width_px.div_ceil(64) + spare_words);
+        let kept = SPARE.with_borrow_mut(|spare| {
+            let index = spare.iter().position(|(s, _)| *s == shape)?;
+            // Most recently used last.
+            let entry = spare.remove(index);
+            spare.push(entry);
+            spare.last_mut()?.1.pop()
+        });
+        kept.unwrap_or_else(|| BitGrid::new(width_px, height_px, spare_words))
+    }
+
+    /// Keeps `grid`, which must be all clear, for a later [`take`].
+    pub(super) fn give_back(grid: BitGrid) {
+        if grid.height_px() == 0 {
+            return;
+        }
+        let shape = shape_of(&grid);
+        SPARE.with_borrow_mut(|spare| match spare.iter_mut().find(|(s, _)| *s == shape) {
+            Some((_, grids)) if grids.len() < MAX_PER_SHAPE => grids.push(grid),
+            Some(_) => {}
+            None => {
+                if spare.len() == MAX_SHAPES {
+                    spare.remove(0);
+                }
+                spare.push((shape, vec![grid]));
+            }
+        });
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,5 +299,35 @@ mod tests {
     fn test_uncovered_matches_direct_drawing_across_words() {
         // Offsets of more than a word, so that the drawing's words slide past the raster's.
         check_against_direct_drawing([200, 40], [70, 3]);
+    }
+
+    #[test]
+    fn a_drawing_on_a_recycled_grid_is_the_drawing_on_a_fresh_one() {
+        let raster = RasterOptions {
+            resolution_m: 0.1,
+            width_px: 120,
+            height_px: 50,
+            max_gap_m: 1.0,
+        };
+        let margin_px = [4, 2];
+        let draw = |points: Vec<Option<[f64; 2]>>| {
+            let polyline = Polyline::new(&Scan::from_points_in_robot(points), raster.max_gap_m);
+            let vertices = polyline.vertices_px(Pose2::IDENTITY, &raster);
+            RotatedScan::new(&polyline, &vertices, &raster, margin_px)
+        };
+        // Pixels on different rows, so that a row left uncleared would show.
+        let first = || vec![Some([-5.0, -2.0]), Some([-4.5, -1.7]), Some([0.0, 2.4])];
+        let second = || vec![Some([1.0, 1.0]), Some([1.5, -1.0])];
+        // Drawn on fresh grids: no drawing of that shape has been dropped yet.
+        let (fresh_first, fresh_second) = (draw(first()), draw(second()));
+        let fresh = (fresh_first.grid.clone(), fresh_second.grid.clone());
+        // Spares are taken last given first: the second scan gets the first one's grid.
+        drop(fresh_second);
+        drop(fresh_first);
+        let recycled_second = draw(second());
+        let recycled_first = draw(first());
+        assert_eq!(recycled_first.grid, fresh.0);
+        assert_eq!(recycled_second.grid, fresh.1);
+        assert_ne!(fresh.0, fresh.1);
     }
 }
