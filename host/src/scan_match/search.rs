@@ -46,7 +46,6 @@ use std::fmt;
 use super::bresenham::BresenhamLine;
 use super::pose::Pose2;
 use super::scan::Scan;
-use crate::floor::floor;
 
 /// Vertices farther than this many pixels from the raster origin (along either axis) are treated
 /// as beams without a return, which bounds the cost of drawing one line.
@@ -376,6 +375,23 @@ pub(crate) struct Polyline {
     joined_to_next: Vec<bool>,
 }
 
+/// `value` rounded down to an integer, when that lies within ±[`MAX_VERTEX_OFFSET_PX`].
+///
+/// Exactly `f64::floor`, without a branch on the sign: vertex coordinates are negative as
+/// often as positive, so a branch there is mispredicted for one vertex in two.
+#[inline]
+fn floor_within_limit(value: f64) -> Option<i64> {
+    let limit = MAX_VERTEX_OFFSET_PX as f64;
+    // The floor lies within the limits exactly when the value lies in `[-limit, limit + 1)`;
+    // the test also rejects NaN, so the cast truncates a value well inside `i64`.
+    if !(value >= -limit && value < limit + 1.0) {
+        return None;
+    }
+    let truncated = value as i64;
+    // Truncation rounds negative fractions up: one step back down for those.
+    Some(truncated - i64::from(truncated as f64 > value))
+}
+
 impl Polyline {
     /// Keeps the valid beams of `scan` and marks the joins allowed by `max_gap_m`.
     pub(crate) fn new(scan: &Scan, max_gap_m: f64) -> Self {
@@ -419,16 +435,9 @@ impl Polyline {
             .map(|&[x_m, y_m]| {
                 let x_in_reference_m = cos * x_m - sin * y_m + reference_from_new.x_m;
                 let y_in_reference_m = sin * x_m + cos * y_m + reference_from_new.y_m;
-                let column = floor(x_in_reference_m / raster.resolution_m);
-                let row = floor(y_in_reference_m / raster.resolution_m);
-                let limit = MAX_VERTEX_OFFSET_PX as f64;
-                // The range check also rejects NaN, so the casts below are exact.
-                ((-limit..=limit).contains(&column) && (-limit..=limit).contains(&row)).then(|| {
-                    [
-                        (column as i64 + centre[0]) as i32,
-                        (row as i64 + centre[1]) as i32,
-                    ]
-                })
+                let column = floor_within_limit(x_in_reference_m / raster.resolution_m)?;
+                let row = floor_within_limit(y_in_reference_m / raster.resolution_m)?;
+                Some([(column + centre[0]) as i32, (row + centre[1]) as i32])
             })
             .collect()
     }
@@ -559,6 +568,49 @@ mod tests {
                 }
             }
             proptest::prop_assert_eq!(drawn, expected);
+        }
+    }
+
+    #[test]
+    fn floor_within_limit_is_floor_inside_the_limit() {
+        let limit = MAX_VERTEX_OFFSET_PX as f64;
+        for value in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.5,
+            2.99,
+            -2.99,
+            -limit,
+            limit,
+            limit + 0.5,
+        ] {
+            assert_eq!(
+                floor_within_limit(value),
+                Some(value.floor() as i64),
+                "{value}"
+            );
+        }
+        for value in [
+            limit + 1.0,
+            -limit - 1e-9,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ] {
+            assert_eq!(floor_within_limit(value), None, "{value}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn floor_within_limit_matches_the_library(value in -1e5..1e5f64) {
+            let floor = value.floor();
+            let expected = (floor.abs() <= MAX_VERTEX_OFFSET_PX as f64).then_some(floor as i64);
+            proptest::prop_assert_eq!(floor_within_limit(value), expected);
         }
     }
 
