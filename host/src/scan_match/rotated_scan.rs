@@ -149,6 +149,11 @@ impl RotatedScan {
                 source.get(first_word + 1..first_word + 1 + WORDS),
                 <&[u64; WORDS]>::try_from(blocked.row(row - first_row)),
             ) else {
+                // Cannot happen: the spare word and the caller's `WORDS` keep both in range.
+                debug_assert!(
+                    false,
+                    "row {row} out of the drawing's or the raster's words"
+                );
                 continue;
             };
             for i in 0..WORDS {
@@ -182,6 +187,8 @@ mod spare_grids {
 
     /// Grids kept per shape, enough for the largest table of rotations in use.
     const MAX_PER_SHAPE: usize = 512;
+    /// Words kept per shape (32 MiB), so that large rasters are not held on to in hundreds.
+    const MAX_WORDS_PER_SHAPE: usize = 1 << 22;
     /// Shapes kept; the least recently used one goes first.
     const MAX_SHAPES: usize = 8;
 
@@ -214,15 +221,18 @@ mod spare_grids {
             return;
         }
         let shape = shape_of(&grid);
+        let words = shape.1 * shape.2;
+        let room = |kept: usize| kept < MAX_PER_SHAPE && (kept + 1) * words <= MAX_WORDS_PER_SHAPE;
         SPARE.with_borrow_mut(|spare| match spare.iter_mut().find(|(s, _)| *s == shape) {
-            Some((_, grids)) if grids.len() < MAX_PER_SHAPE => grids.push(grid),
+            Some((_, grids)) if room(grids.len()) => grids.push(grid),
             Some(_) => {}
-            None => {
+            None if room(0) => {
                 if spare.len() == MAX_SHAPES {
                     spare.remove(0);
                 }
                 spare.push((shape, vec![grid]));
             }
+            None => {}
         });
     }
 }

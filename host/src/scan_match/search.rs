@@ -377,8 +377,8 @@ pub(crate) struct Polyline {
 
 /// `value` rounded down to an integer, when that lies within ±[`MAX_VERTEX_OFFSET_PX`].
 ///
-/// Exactly `f64::floor`, without a branch on the sign: vertex coordinates are negative as
-/// often as positive, so a branch there is mispredicted for one vertex in two.
+/// Exactly `f64::floor`, without a branch on the sign, which vertices on either side of the
+/// scan would take at random.
 #[inline]
 fn floor_within_limit(value: f64) -> Option<i64> {
     let limit = MAX_VERTEX_OFFSET_PX as f64;
