@@ -200,9 +200,9 @@ impl UpdateMarks {
     /// Starts a new scan over a grid of `num_cells` cells: no cell updated yet.
     fn start_scan(&mut self, num_cells: usize) {
         if self.updated_in_scan.len() != num_cells || self.scan_number == u32::MAX {
-            // The grid grew (indices moved) or the scan numbers wrapped: start afresh.
-            self.updated_in_scan.clear();
-            self.updated_in_scan.resize(num_cells, 0);
+            // The grid grew (indices moved) or the scan numbers wrapped: start afresh, in a
+            // new buffer (growing the old one would copy marks that no longer count).
+            self.updated_in_scan = vec![0; num_cells];
             self.scan_number = 0;
         }
         self.scan_number += 1;
