@@ -50,6 +50,23 @@ impl Default for ProbabilityGridOptions {
     }
 }
 
+/// The log-odds a grid's cells are kept within.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LogOddsBounds {
+    min: f32,
+    max: f32,
+}
+
+impl LogOddsBounds {
+    /// A cell's log-odds after adding `delta_log_odds` to `previous` ([`UNKNOWN_LOG_ODDS`]
+    /// counting as even odds), kept within the bounds.
+    #[inline]
+    pub(crate) fn updated(self, previous: f32, delta_log_odds: f32) -> f32 {
+        let previous = if previous.is_nan() { 0.0 } else { previous };
+        (previous + delta_log_odds).clamp(self.min, self.max)
+    }
+}
+
 /// Occupancy log-odds per cell over [`MapLimits`], growable, with unknown cells kept apart.
 #[derive(Clone, Debug)]
 pub struct ProbabilityGrid {
@@ -176,15 +193,58 @@ impl ProbabilityGrid {
     /// [`ProbabilityGrid::update_log_odds`] by row-major storage index.
     pub(crate) fn update_log_odds_at(&mut self, index: usize, delta_log_odds: f32) {
         debug_assert!(index < self.log_odds.len(), "cell index out of bounds");
-        let cell = &mut self.log_odds[index];
-        let previous = if cell.is_nan() { 0.0 } else { *cell };
-        *cell = (previous + delta_log_odds).clamp(self.min_log_odds, self.max_log_odds);
+        let (log_odds, bounds) = self.log_odds_mut();
+        log_odds[index] = bounds.updated(log_odds[index], delta_log_odds);
+    }
+
+    /// Every cell's log-odds (row-major, as [`MapLimits::linear_index`]), for callers that
+    /// update many cells, with the bounds an update keeps them in.
+    pub(crate) fn log_odds_mut(&mut self) -> (&mut [f32], LogOddsBounds) {
+        let bounds = LogOddsBounds {
+            min: self.min_log_odds,
+            max: self.max_log_odds,
+        };
+        (&mut self.log_odds, bounds)
     }
 
     /// Grows the grid, if needed, so that it contains the cell of `point_in_grid` (metres).
     /// Non-finite points are ignored.
     pub fn grow_to_include(&mut self, point_in_grid: [f64; 2]) {
         self.grow_to_include_bounds(point_in_grid, point_in_grid);
+    }
+
+    /// Grows the grid at once to contain every cell of the box from `lower_in_grid` to
+    /// `upper_in_grid` (metres), when it can do so without nearing [`MAX_SIDE_CELLS`]; returns
+    /// whether it did. Growing one box at a time ([`Self::grow_to_include_bounds`]) to the
+    /// same cells then changes nothing but the cost: each growth copies every cell.
+    ///
+    /// The box, with the grid's current cells and the widest growth margin on every side,
+    /// must stay within [`MAX_SIDE_CELLS`]: then neither this growth nor any growth step by
+    /// step towards the same box is cut short by that limit, and both leave every cell with
+    /// the same value.
+    pub fn reserve_bounds(&mut self, lower_in_grid: [f64; 2], upper_in_grid: [f64; 2]) -> bool {
+        if !lower_in_grid
+            .iter()
+            .chain(&upper_in_grid)
+            .all(|c| c.is_finite())
+        {
+            return false;
+        }
+        let lower = self.limits.cell_index(lower_in_grid).map(i64::from);
+        let upper = self.limits.cell_index(upper_in_grid).map(i64::from);
+        let size = [self.limits.width_cells(), self.limits.height_cells()];
+        let fits = (0..2).all(|axis| {
+            let (mut low, mut high) = (lower[axis].min(upper[axis]), lower[axis].max(upper[axis]));
+            if size[axis] > 0 {
+                low = low.min(0);
+                high = high.max(size[axis] as i64 - 1);
+            }
+            high - low + 1 + 2 * MAX_GROWTH_CELLS as i64 <= MAX_SIDE_CELLS as i64
+        });
+        if fits {
+            self.grow_to_include_bounds(lower_in_grid, upper_in_grid);
+        }
+        fits
     }
 
     /// Grows the grid, if needed, so that it contains every cell of the axis-aligned box from
@@ -278,13 +338,36 @@ impl ProbabilityGrid {
             width,
             height,
         );
-        let mut log_odds = vec![UNKNOWN_LOG_ODDS; width * height];
-        for (row, old_row) in self.log_odds.chunks_exact(old.width_cells()).enumerate() {
-            let start = (row + grow_low[1]) * width + grow_low[0];
-            log_odds[start..start + old.width_cells()].copy_from_slice(old_row);
+        // Written once, row by row: unknown rows below, the old rows between unknown margins,
+        // unknown rows above.
+        let mut log_odds = Vec::with_capacity(width * height);
+        log_odds.resize(grow_low[1] * width, UNKNOWN_LOG_ODDS);
+        for old_row in self.log_odds.chunks_exact(old.width_cells()) {
+            log_odds.resize(log_odds.len() + grow_low[0], UNKNOWN_LOG_ODDS);
+            log_odds.extend_from_slice(old_row);
+            log_odds.resize(log_odds.len() + grow_high[0], UNKNOWN_LOG_ODDS);
         }
+        log_odds.resize(width * height, UNKNOWN_LOG_ODDS);
         self.limits = new_limits;
         self.log_odds = log_odds;
+    }
+}
+
+#[cfg(test)]
+impl ProbabilityGrid {
+    /// Whether both grids hold the same value, to the bit, at the centre of every cell of
+    /// either: the same map, whatever cells each happens to cover.
+    pub(crate) fn same_values(&self, other: &ProbabilityGrid) -> bool {
+        [self, other].iter().all(|grid| {
+            let limits = grid.limits();
+            (0..limits.height_cells() as i32).all(|row| {
+                (0..limits.width_cells() as i32).all(|column| {
+                    let centre = limits.cell_center_in_grid([column, row]);
+                    let value = |g: &ProbabilityGrid| g.probability_at(centre).map(f32::to_bits);
+                    value(self) == value(other)
+                })
+            })
+        })
     }
 }
 

@@ -18,6 +18,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::map_limits::CellIndex;
+#[cfg(doc)]
+use super::probability_grid::MAX_SIDE_CELLS;
 use super::probability_grid::{ProbabilityGrid, log_odds_from_probability};
 use crate::scan_match::{BresenhamLine, Pose2, Scan};
 
@@ -115,24 +117,11 @@ impl RangeInserter {
     /// hits first. The grid grows to hold every cell touched. A non-finite pose inserts nothing.
     pub fn insert(&mut self, scan: &Scan, grid_from_robot: Pose2, grid: &mut ProbabilityGrid) {
         let sensor_in_grid = [grid_from_robot.x_m, grid_from_robot.y_m];
-        if !(sensor_in_grid[0].is_finite()
-            && sensor_in_grid[1].is_finite()
-            && grid_from_robot.theta_rad.is_finite())
-        {
+        let Some((lower, upper)) = self.bounds_in_grid(scan, grid_from_robot) else {
             return;
-        }
-        self.collect_end_points(scan, grid_from_robot);
-
+        };
         // Grow once for the whole scan: the Bresenham cells of a ray stay within the box of its
         // two end cells, so a grid containing every end contains every ray.
-        let mut lower = sensor_in_grid;
-        let mut upper = sensor_in_grid;
-        for point in self.hits_in_grid.iter().chain(&self.free_ends_in_grid) {
-            for axis in 0..2 {
-                lower[axis] = lower[axis].min(point[axis]);
-                upper[axis] = upper[axis].max(point[axis]);
-            }
-        }
         grid.grow_to_include_bounds(lower, upper);
         self.marks.start_scan(grid.limits().num_cells());
 
@@ -145,16 +134,42 @@ impl RangeInserter {
         for &hit_in_grid in &self.hits_in_grid {
             let end_cell = limits.cell_index(hit_in_grid);
             let num_free = chebyshev_length(sensor_cell, end_cell);
-            for cell in BresenhamLine::new(sensor_cell, end_cell).take(num_free) {
-                self.marks.update_once(grid, cell, self.miss_log_odds);
-            }
+            self.marks
+                .update_ray_once(grid, sensor_cell, end_cell, num_free, self.miss_log_odds);
         }
         for &free_end_in_grid in &self.free_ends_in_grid {
             let end_cell = limits.cell_index(free_end_in_grid);
-            for cell in BresenhamLine::new(sensor_cell, end_cell) {
-                self.marks.update_once(grid, cell, self.miss_log_odds);
+            let num_cells = chebyshev_length(sensor_cell, end_cell) + 1;
+            self.marks
+                .update_ray_once(grid, sensor_cell, end_cell, num_cells, self.miss_log_odds);
+        }
+    }
+
+    /// The box (lower and upper corner, metres in the grid frame) holding every cell that
+    /// inserting `scan` at `grid_from_robot` would touch: the sensor and every ray's far end.
+    /// `None` for a non-finite pose, which inserts nothing.
+    pub fn bounds_in_grid(
+        &mut self,
+        scan: &Scan,
+        grid_from_robot: Pose2,
+    ) -> Option<([f64; 2], [f64; 2])> {
+        let sensor_in_grid = [grid_from_robot.x_m, grid_from_robot.y_m];
+        if !(sensor_in_grid[0].is_finite()
+            && sensor_in_grid[1].is_finite()
+            && grid_from_robot.theta_rad.is_finite())
+        {
+            return None;
+        }
+        self.collect_end_points(scan, grid_from_robot);
+        let mut lower = sensor_in_grid;
+        let mut upper = sensor_in_grid;
+        for point in self.hits_in_grid.iter().chain(&self.free_ends_in_grid) {
+            for axis in 0..2 {
+                lower[axis] = lower[axis].min(point[axis]);
+                upper[axis] = upper[axis].max(point[axis]);
             }
         }
+        Some((lower, upper))
     }
 
     /// Fills `hits_in_grid` and `free_ends_in_grid` for `scan` at `grid_from_robot`.
@@ -198,20 +213,76 @@ struct UpdateMarks {
 
 impl UpdateMarks {
     /// Starts a new scan over a grid of `num_cells` cells: no cell updated yet.
+    ///
+    /// When the grid grew, its cells moved to other indices and the marks left there are
+    /// meaningless, but they are all numbers of earlier scans, never the new scan's: the buffer
+    /// is kept and only lengthened. Only when the scan numbers wrap does it start afresh.
     fn start_scan(&mut self, num_cells: usize) {
-        if self.updated_in_scan.len() != num_cells || self.scan_number == u32::MAX {
-            // The grid grew (indices moved) or the scan numbers wrapped: start afresh, in a
-            // new buffer (growing the old one would copy marks that no longer count).
-            self.updated_in_scan = vec![0; num_cells];
+        if self.updated_in_scan.len() < num_cells || self.scan_number == u32::MAX {
+            // A new buffer (growing the old one would copy marks that no longer count), with
+            // room for the grid to grow by half before the next.
+            self.updated_in_scan = vec![0; num_cells + num_cells / 2];
             self.scan_number = 0;
         }
         self.scan_number += 1;
     }
 
+    /// Adds `delta_log_odds` once to each of the first `num_cells` cells of the Bresenham
+    /// line from `from` to `to` ([`BresenhamLine`]'s cells, in its order) that this scan has
+    /// not updated yet.
+    ///
+    /// The line is walked by storage index: when both ends lie in the grid, so does every
+    /// cell between them, and one check of the ends serves the whole ray. A ray reaching
+    /// beyond a grid that could not grow to hold it ([`MAX_SIDE_CELLS`]) is walked cell by
+    /// cell.
+    fn update_ray_once(
+        &mut self,
+        grid: &mut ProbabilityGrid,
+        from: CellIndex,
+        to: CellIndex,
+        num_cells: usize,
+        delta_log_odds: f32,
+    ) {
+        let limits = *grid.limits();
+        let (Some(from_index), Some(_)) = (limits.linear_index(from), limits.linear_index(to))
+        else {
+            for cell in BresenhamLine::new(from, to).take(num_cells) {
+                self.update_once(grid, cell, delta_log_odds);
+            }
+            return;
+        };
+        let delta_x = (i64::from(to[0]) - i64::from(from[0])).abs();
+        let delta_y = -(i64::from(to[1]) - i64::from(from[1])).abs();
+        // Grid dimensions fit in memory, so a row's stride fits an `isize`.
+        let step_x = (to[0] - from[0]).signum() as isize;
+        let step_y = (to[1] - from[1]).signum() as isize * limits.width_cells() as isize;
+        let mut error = delta_x + delta_y;
+        let mut index = from_index as isize;
+        let scan_number = self.scan_number;
+        let (log_odds, bounds) = grid.log_odds_mut();
+        let marks = &mut self.updated_in_scan;
+        for _ in 0..num_cells {
+            let cell = index as usize;
+            if marks[cell] != scan_number {
+                marks[cell] = scan_number;
+                log_odds[cell] = bounds.updated(log_odds[cell], delta_log_odds);
+            }
+            let twice_error = 2 * error;
+            if twice_error >= delta_y {
+                error += delta_y;
+                index += step_x;
+            }
+            if twice_error <= delta_x {
+                error += delta_x;
+                index += step_y;
+            }
+        }
+    }
+
     /// Adds `delta_log_odds` to `cell` unless it was already updated in this scan.
     fn update_once(&mut self, grid: &mut ProbabilityGrid, cell: CellIndex, delta_log_odds: f32) {
+        // Only a grid that could not grow to hold the scan leaves cells outside.
         let Some(index) = grid.limits().linear_index(cell) else {
-            debug_assert!(false, "cell {cell:?} outside a grid grown to hold the scan");
             return;
         };
         if self.updated_in_scan[index] != self.scan_number {
@@ -413,6 +484,109 @@ mod tests {
         let scan = Scan::from_points_in_robot(vec![Some([1.0, 0.0])]);
         inserter.insert(&scan, Pose2::new(f64::NAN, 0.0, 0.0), &mut grid);
         assert_eq!(grid.num_known_cells(), 0);
+    }
+
+    /// The inserter's rule spelt out cell by cell: the grid grown to the scan's box, a hit in
+    /// every end cell, then a miss in every cell of every ray's Bresenham line short of its
+    /// end, each cell updated once.
+    fn insert_cell_by_cell(
+        scan: &Scan,
+        grid_from_robot: Pose2,
+        grid: &mut ProbabilityGrid,
+        options: RangeInserterOptions,
+    ) {
+        let mut inserter = RangeInserter::new(options);
+        let Some((lower, upper)) = inserter.bounds_in_grid(scan, grid_from_robot) else {
+            return;
+        };
+        grid.grow_to_include_bounds(lower, upper);
+        let limits = *grid.limits();
+        let sensor = limits.cell_index([grid_from_robot.x_m, grid_from_robot.y_m]);
+        let mut updated = std::collections::HashSet::new();
+        let mut update = |grid: &mut ProbabilityGrid, cell: CellIndex, delta: f32| {
+            if updated.insert(cell) {
+                grid.update_log_odds(cell, delta);
+            }
+        };
+        for hit in &inserter.hits_in_grid {
+            update(grid, limits.cell_index(*hit), inserter.hit_log_odds);
+        }
+        for hit in &inserter.hits_in_grid {
+            let end = limits.cell_index(*hit);
+            let line: Vec<CellIndex> = BresenhamLine::new(sensor, end).collect();
+            for &cell in &line[..line.len() - 1] {
+                update(grid, cell, inserter.miss_log_odds);
+            }
+        }
+        for free_end in &inserter.free_ends_in_grid {
+            for cell in BresenhamLine::new(sensor, limits.cell_index(*free_end)) {
+                update(grid, cell, inserter.miss_log_odds);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        /// Rays walked by storage index update the cells the rule names, to the bit, over
+        /// several scans that grow the grid in every direction.
+        #[test]
+        fn rays_walked_by_index_update_the_cells_the_rule_names(
+            scans in proptest::collection::vec(
+                (
+                    (-3.0f64..3.0, -3.0f64..3.0, -3.2f64..3.2),
+                    proptest::collection::vec(
+                        proptest::option::weighted(0.8, (0.05f64..6.0, -1.6f64..1.6)),
+                        2..40,
+                    ),
+                ),
+                1..5,
+            ),
+            miss_range in proptest::option::of(1.0f64..4.0),
+        ) {
+            let options = RangeInserterOptions {
+                miss_range_m: miss_range,
+                ..RangeInserterOptions::default()
+            };
+            let mut fast = grid();
+            let mut expected = grid();
+            let mut inserter = RangeInserter::new(options);
+            for ((x, y, theta), beams) in &scans {
+                let pose = Pose2::new(*x, *y, *theta);
+                let points = beams
+                    .iter()
+                    .map(|beam| beam.map(|(r, a): (f64, f64)| [r * a.cos(), r * a.sin()]))
+                    .collect();
+                let scan = Scan::from_points_in_robot(points);
+                inserter.insert(&scan, pose, &mut fast);
+                insert_cell_by_cell(&scan, pose, &mut expected, options);
+            }
+            proptest::prop_assert!(fast.same_values(&expected));
+        }
+    }
+
+    #[test]
+    fn rays_beyond_a_grid_that_cannot_grow_keep_their_cells_inside() {
+        use crate::grid::probability_grid::MAX_SIDE_CELLS;
+        // A grid already at the largest side, and a beam far beyond it.
+        let mut fast = grid();
+        let side_m = MAX_SIDE_CELLS as f64 * 0.1;
+        fast.grow_to_include_bounds([0.0, 0.0], [side_m - 20.0, 1.0]);
+        let mut expected = fast.clone();
+        // 90 m ahead from 30 m short of the grid's end.
+        let scan = Scan::from_points_in_robot(vec![Some([90.0, 0.3]), Some([2.0, 0.0])]);
+        let pose = Pose2::new(side_m - 30.0, 0.5, 0.0);
+        RangeInserter::new(RangeInserterOptions::default()).insert(&scan, pose, &mut fast);
+        insert_cell_by_cell(&scan, pose, &mut expected, RangeInserterOptions::default());
+        // The grid stopped at its largest side, short of the far end point.
+        assert!(fast.limits().width_cells() <= MAX_SIDE_CELLS);
+        assert!(
+            !fast
+                .limits()
+                .contains_point(pose.transform_point([90.0, 0.3]))
+        );
+        assert!(fast.num_known_cells() > 100);
+        assert!(fast.same_values(&expected));
     }
 
     /// The probability after independent observations of `probabilities`, from even odds.

@@ -125,6 +125,36 @@ impl Submap {
         self.inserter = RangeInserter::new(*self.inserter.options());
     }
 
+    /// Grows the grid at once to hold every cell that inserting each of `scans` (with its
+    /// `map_from_robot`) would touch, where it can ([`ProbabilityGrid::reserve_bounds`]), so
+    /// that inserting them in turn does not grow it step by step. The grid's values come out
+    /// the same either way. Does nothing before the submap's frame is fixed.
+    pub fn reserve_for<'a>(&mut self, scans: impl IntoIterator<Item = (&'a Scan, Pose2)>) {
+        let Some(map_from_submap) = self.pose_in_map else {
+            return;
+        };
+        let submap_from_map = map_from_submap.inverse();
+        let mut bounds: Option<([f64; 2], [f64; 2])> = None;
+        for (scan, robot_pose_in_map) in scans {
+            let Some((lower, upper)) = self
+                .inserter
+                .bounds_in_grid(scan, submap_from_map * robot_pose_in_map)
+            else {
+                continue;
+            };
+            bounds = Some(match bounds {
+                None => (lower, upper),
+                Some((l, u)) => (
+                    [l[0].min(lower[0]), l[1].min(lower[1])],
+                    [u[0].max(upper[0]), u[1].max(upper[1])],
+                ),
+            });
+        }
+        if let Some((lower, upper)) = bounds {
+            self.grid.reserve_bounds(lower, upper);
+        }
+    }
+
     /// Inserts `scan`, taken with the robot at `robot_pose_in_map` (`map_from_robot`), into the
     /// grid. The first scan of a submap without a pose fixes the submap frame at
     /// `robot_pose_in_map`.
@@ -191,5 +221,46 @@ mod tests {
         );
         assert_eq!(submap.grid().num_known_cells(), known);
         assert_eq!(submap.num_scans(), 1);
+    }
+
+    #[test]
+    fn reserving_room_first_changes_no_cell() {
+        let scans: Vec<(Scan, Pose2)> = (0..6)
+            .map(|k| {
+                let k = f64::from(k);
+                let points = (0..30)
+                    .map(|beam| {
+                        let angle = -1.5 + 0.1 * f64::from(beam);
+                        let range = 2.0 + k + 0.3 * f64::from(beam % 5);
+                        Some([range * angle.cos(), range * angle.sin()])
+                    })
+                    .collect();
+                let pose = Pose2::new(1.5 * k, -0.7 * k, 0.8 * k);
+                (Scan::from_points_in_robot(points), pose)
+            })
+            .collect();
+        let first_pose = scans[0].1;
+        let mut step_by_step = Submap::with_pose_in_map(first_pose, SubmapOptions::default());
+        let mut reserved = step_by_step.clone();
+        reserved.reserve_for(scans.iter().map(|(scan, pose)| (scan, *pose)));
+        let reserved_cells = reserved.grid().limits().num_cells();
+        for (scan, pose) in &scans {
+            step_by_step.insert(scan, *pose).unwrap();
+            reserved.insert(scan, *pose).unwrap();
+        }
+        // Room was made once, for every scan, and no scan grew the grid after.
+        assert_eq!(reserved.grid().limits().num_cells(), reserved_cells);
+        assert!(reserved.grid().same_values(step_by_step.grid()));
+        assert!(reserved.grid().num_known_cells() > 1000);
+    }
+
+    #[test]
+    fn a_box_beyond_the_largest_grid_is_left_to_grow_scan_by_scan() {
+        let mut grid = ProbabilityGrid::new(0.05, Default::default());
+        let side_m = crate::grid::probability_grid::MAX_SIDE_CELLS as f64 * 0.05;
+        assert!(!grid.reserve_bounds([0.0, 0.0], [side_m, 1.0]));
+        assert_eq!(grid.limits().num_cells(), 0);
+        assert!(grid.reserve_bounds([0.0, 0.0], [10.0, 1.0]));
+        assert!(grid.limits().num_cells() > 0);
     }
 }
