@@ -89,12 +89,35 @@ pub struct GraphSlam {
 }
 
 /// A chain of earlier scans drawn into a submap, with its matcher reference.
+///
+/// Its occupancy grid is drawn only when a match in it reaches the acceptance test, which
+/// reads it: most searches end before, and ray casting tens of scans is the dearest part of
+/// drawing a chain.
 #[derive(Debug)]
 struct DrawnChain {
     /// `(centre, first, last)` node and the optimisations run when it was drawn.
     key: ([usize; 3], usize),
+    /// The chain's end points; its grid too once `grid_drawn`.
     submap: SlamSubmap,
     reference: PreparedReference,
+    grid_drawn: bool,
+}
+
+impl DrawnChain {
+    /// Draws the grid of the chain, once: `scans` at `poses_in_map`, the scans and poses the
+    /// chain was made of.
+    fn draw_grid(&mut self, scans: &[Scan], poses_in_map: &[Pose2]) {
+        if self.grid_drawn {
+            return;
+        }
+        self.grid_drawn = true;
+        let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
+        self.submap.reserve_for(scans_at_poses());
+        for (scan, pose) in scans_at_poses() {
+            self.submap.insert_into_grid(scan, pose);
+        }
+        self.submap.finish();
+    }
 }
 
 impl GraphSlam {
@@ -291,6 +314,7 @@ impl GraphSlam {
             .as_ref()
             .is_none_or(|drawn| drawn.key != key)
         {
+            // The grid waits until a match needs it (`DrawnChain::draw_grid`).
             let mut submap =
                 SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
             for (chained, (scan, &pose)) in self.scans[first..=last]
@@ -298,22 +322,24 @@ impl GraphSlam {
                 .zip(&poses[first..=last])
                 .enumerate()
             {
-                submap.insert(first + chained, scan, pose);
+                submap.insert_points(first + chained, scan, pose);
             }
-            submap.finish();
             let reference = self.chain_closer.prepare(&submap.reference_scan());
             self.last_chain = Some(DrawnChain {
                 key,
                 submap,
                 reference,
+                grid_drawn: false,
             });
         }
-        let drawn = self.last_chain.as_ref()?;
+        let drawn = self.last_chain.as_mut()?;
         self.stats.chain_closure_searches += 1;
         let guess = frame.inverse() * pose_in_map;
-        let closure = self
+        let candidate = self
             .chain_closer
-            .search(&drawn.submap, &drawn.reference, scan, guess)?;
+            .align(&drawn.submap, &drawn.reference, scan, guess)?;
+        drawn.draw_grid(&self.scans[first..=last], &poses[first..=last]);
+        let closure = self.chain_closer.accept(&drawn.submap, &candidate)?;
         Some(FoundClosure {
             submap_first_node: centre,
             node,

@@ -30,6 +30,18 @@ pub struct LoopClosure {
     pub information_in_robot: Matrix3<f64>,
 }
 
+/// A scan aligned in a submap, whose end points lie on the submap's surfaces often enough to
+/// be accepted, before the rest of the test ([`LoopCloser::accept`]).
+#[derive(Clone, Debug)]
+pub struct AlignedCandidate {
+    /// The scan's end points, robot frame.
+    points_in_robot: Vec<[f64; 2]>,
+    /// `submap_from_robot` after alignment.
+    pose_in_submap: Pose2,
+    /// What the alignment knows of the pose ([`LoopClosure::information_in_robot`]).
+    information_in_robot: Matrix3<f64>,
+}
+
 /// The searcher. See the [module documentation](self).
 #[derive(Clone, Debug)]
 pub struct LoopCloser {
@@ -74,6 +86,20 @@ impl LoopCloser {
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
+        let candidate = self.align(submap, reference, scan, guess_in_submap)?;
+        self.accept(submap, &candidate)
+    }
+
+    /// The first part of [`Self::search`], which needs only the submap's end points: the
+    /// raster search and the alignment. `None` when the search finds nothing, or when too few
+    /// end points lie on the submap's surfaces for [`Self::accept`] to take it.
+    pub fn align(
+        &self,
+        submap: &SlamSubmap,
+        reference: &PreparedReference,
+        scan: &Scan,
+        guess_in_submap: Pose2,
+    ) -> Option<AlignedCandidate> {
         let found = self
             .matcher
             .match_prepared(reference, scan, guess_in_submap)
@@ -81,11 +107,26 @@ impl LoopCloser {
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         let icp = &self.options.icp;
         let aligned = align(submap.points(), &points, found.reference_from_new, icp)?;
-        let fit = submap.fit(&points, aligned.map_from_robot, icp.inlier_m);
-        self.options.accepts(&fit).then(|| LoopClosure {
+        let inlier_fraction = submap.inlier_fraction(&points, aligned.map_from_robot, icp.inlier_m);
+        (inlier_fraction >= self.options.min_inlier_fraction).then(|| AlignedCandidate {
+            points_in_robot: points,
             pose_in_submap: aligned.map_from_robot,
-            fit,
             information_in_robot: aligned.information_in_robot(),
+        })
+    }
+
+    /// The rest of [`Self::search`]: the whole acceptance test of `candidate`, found by
+    /// [`Self::align`] in `submap`, whose grid it reads.
+    pub fn accept(&self, submap: &SlamSubmap, candidate: &AlignedCandidate) -> Option<LoopClosure> {
+        let fit = submap.fit(
+            &candidate.points_in_robot,
+            candidate.pose_in_submap,
+            self.options.icp.inlier_m,
+        );
+        self.options.accepts(&fit).then_some(LoopClosure {
+            pose_in_submap: candidate.pose_in_submap,
+            fit,
+            information_in_robot: candidate.information_in_robot,
         })
     }
 }

@@ -75,6 +75,13 @@ impl SlamSubmap {
         if self.submap.insert(scan, robot_pose_in_local).is_err() {
             return;
         }
+        self.insert_points(node, scan, robot_pose_in_local);
+    }
+
+    /// The part of [`Self::insert`] that leaves the grid alone: the end points, for alignment
+    /// and for the raster matcher. A submap built this way must have its grid drawn
+    /// ([`Self::insert_into_grid`], the same scans at the same poses) before it is fit.
+    pub(crate) fn insert_points(&mut self, node: usize, scan: &Scan, robot_pose_in_local: Pose2) {
         let submap_from_robot = self.pose_in_local.inverse() * robot_pose_in_local;
         self.points.insert_scan(scan, submap_from_robot);
         self.points_in_submap.extend(
@@ -84,6 +91,18 @@ impl SlamSubmap {
         );
         self.points_in_submap.push(None);
         self.last_node = node;
+    }
+
+    /// The other part of [`Self::insert`]: `scan` into the occupancy grid only. Nothing
+    /// happens once the submap is finished.
+    pub(crate) fn insert_into_grid(&mut self, scan: &Scan, robot_pose_in_local: Pose2) {
+        let _ = self.submap.insert(scan, robot_pose_in_local);
+    }
+
+    /// Makes room at once for `scans`, each with its `robot_pose_in_local`, before they are
+    /// inserted in turn ([`Submap::reserve_for`]).
+    pub fn reserve_for<'a>(&mut self, scans: impl IntoIterator<Item = (&'a Scan, Pose2)>) {
+        self.submap.reserve_for(scans);
     }
 
     /// Stops insertion.
@@ -114,6 +133,7 @@ impl SlamSubmap {
         }
         let grid = self.submap.grid();
         let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
+        // Inliers are counted as in `inlier_fraction`, which must give the same number.
         let (mut range_sum_m, mut inlier_range_m, mut free_range_m) = (0.0, 0.0, 0.0);
         for &p in points_in_robot {
             let range_m = p[0].hypot(p[1]);
@@ -147,6 +167,26 @@ impl SlamSubmap {
             surface_fraction: surface(inlier_range_m),
             free_surface_fraction: surface(free_range_m),
         }
+    }
+
+    /// [`SubmapFit::inlier_fraction`] of [`Self::fit`], to the bit, without the grid.
+    pub fn inlier_fraction(
+        &self,
+        points_in_robot: &[[f64; 2]],
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+    ) -> f64 {
+        if points_in_robot.is_empty() {
+            return 0.0;
+        }
+        let inliers = points_in_robot
+            .iter()
+            .filter(|&&p| {
+                self.points
+                    .any_within(submap_from_robot.transform_point(p), inlier_m)
+            })
+            .count();
+        inliers as f64 / points_in_robot.len() as f64
     }
 
     /// Every inserted scan in the submap frame, as one reference for the raster matcher.
@@ -212,5 +252,40 @@ mod tests {
             "{fit:?}"
         );
         assert!((fit.tracking_score(0.5) - (1.0 - 0.5 * 9.5) / 10.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_inlier_fraction_without_the_grid_is_the_fit_s() {
+        let walls = polygon_walls(&[[-1.0, -2.0], [6.0, -2.0], [6.0, 3.0], [-1.0, 3.0]]);
+        let mut submap = SlamSubmap::new(
+            Pose2::IDENTITY,
+            0,
+            SubmapOptions::default(),
+            PointMapOptions::default(),
+        );
+        for node in 0..3 {
+            let k = node as f64;
+            let pose = Pose2::new(0.4 * k, 0.1, 0.05 * k);
+            submap.insert(node, &cast_front_scan(&walls, pose), pose);
+        }
+        let scan = cast_front_scan(&walls, Pose2::new(1.0, 0.3, 0.2));
+        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
+        for pose in [
+            Pose2::new(1.0, 0.3, 0.2),
+            Pose2::new(1.04, 0.25, 0.21),
+            Pose2::new(0.5, 0.0, -0.3),
+        ] {
+            let fit = submap.fit(&points, pose, 0.1);
+            assert_eq!(
+                submap.inlier_fraction(&points, pose, 0.1),
+                fit.inlier_fraction
+            );
+        }
+        assert!(
+            submap
+                .fit(&points, Pose2::new(1.0, 0.3, 0.2), 0.1)
+                .inlier_fraction
+                > 0.9
+        );
     }
 }
