@@ -133,12 +133,12 @@ impl SlamSubmap {
         }
         let grid = self.submap.grid();
         let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
-        // Inliers are counted as in `inlier_fraction`, which must give the same number.
         let (mut range_sum_m, mut inlier_range_m, mut free_range_m) = (0.0, 0.0, 0.0);
         for &p in points_in_robot {
             let range_m = p[0].hypot(p[1]);
             range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
+            // As `inlier_fraction` counts them: loop closure tests its share before the grid.
             let inlier = self.points.any_within(point, inlier_m);
             if inlier {
                 inliers += 1;
