@@ -29,7 +29,7 @@ mod submap;
 pub use interpolated_grid::{GridLevel, InterpolatedGrid, InterpolatedProbability};
 pub use map_export::{FREE_PIXEL, MapExport, MapExportOptions, OCCUPIED_PIXEL, UNKNOWN_PIXEL};
 pub use map_limits::{CellIndex, MapLimits};
-pub use probability_grid::{ProbabilityGrid, ProbabilityGridOptions};
+pub use probability_grid::{MAX_SIDE_CELLS, ProbabilityGrid, ProbabilityGridOptions};
 pub use range_inserter::{RangeInserter, RangeInserterOptions};
 pub use scan_refiner::{Refinement, ScanRefiner, ScanRefinerOptions};
 pub use submap::{Submap, SubmapFinishedError, SubmapOptions};

@@ -42,7 +42,7 @@ mod window_matcher;
 
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use local_tracker::{LocalTracker, TrackedScan};
-pub use loop_closer::{LoopCloser, LoopClosure};
+pub use loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
 pub use options::{
     ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,
 };
