@@ -97,20 +97,18 @@ pub struct GraphSlam {
 struct DrawnChain {
     /// `(centre, first, last)` node and the optimisations run when it was drawn.
     key: ([usize; 3], usize),
-    /// The chain's end points; its grid too once `grid_drawn`.
+    /// The chain's end points; its grid too once drawn (the submap is then finished).
     submap: SlamSubmap,
     reference: PreparedReference,
-    grid_drawn: bool,
 }
 
 impl DrawnChain {
     /// Draws the grid of the chain, once: `scans` at `poses_in_map`, the scans and poses the
     /// chain was made of.
     fn draw_grid(&mut self, scans: &[Scan], poses_in_map: &[Pose2]) {
-        if self.grid_drawn {
+        if self.submap.is_finished() {
             return;
         }
-        self.grid_drawn = true;
         let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
         self.submap.reserve_for(scans_at_poses());
         for (scan, pose) in scans_at_poses() {
@@ -329,7 +327,6 @@ impl GraphSlam {
                 key,
                 submap,
                 reference,
-                grid_drawn: false,
             });
         }
         let drawn = self.last_chain.as_mut()?;

@@ -138,8 +138,7 @@ impl SlamSubmap {
             let range_m = p[0].hypot(p[1]);
             range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
-            // As `inlier_fraction` counts them: loop closure tests its share before the grid.
-            let inlier = self.points.any_within(point, inlier_m);
+            let inlier = self.is_inlier(point, inlier_m);
             if inlier {
                 inliers += 1;
                 inlier_range_m += range_m;
@@ -181,12 +180,16 @@ impl SlamSubmap {
         }
         let inliers = points_in_robot
             .iter()
-            .filter(|&&p| {
-                self.points
-                    .any_within(submap_from_robot.transform_point(p), inlier_m)
-            })
+            .filter(|&&p| self.is_inlier(submap_from_robot.transform_point(p), inlier_m))
             .count();
         inliers as f64 / points_in_robot.len() as f64
+    }
+
+    /// Whether an end point at `point_in_submap` lies on the submap's surfaces: within
+    /// `inlier_m` of one of its points. [`Self::fit`] and [`Self::inlier_fraction`] both ask
+    /// this, so that they count the same inliers.
+    fn is_inlier(&self, point_in_submap: [f64; 2], inlier_m: f64) -> bool {
+        self.points.any_within(point_in_submap, inlier_m)
     }
 
     /// Every inserted scan in the submap frame, as one reference for the raster matcher.
