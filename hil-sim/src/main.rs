@@ -458,6 +458,18 @@ fn replay_carmen(
         summary.scans_per_second,
         options.out.display()
     );
+    if let Some(agreement) = &summary.relations_agreement {
+        let without = &agreement.undisputed_summary;
+        eprintln!(
+            "hil-sim: the scans dispute {} of {} relations (their true pose lines them up far \
+             worse than the estimate); without those: {:.4} m, {:.3}° over {}",
+            agreement.disputed.len(),
+            agreement.checked,
+            without.mean_translation_m,
+            without.mean_rotation_deg,
+            without.count
+        );
+    }
     Ok(())
 }
 

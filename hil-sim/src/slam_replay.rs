@@ -10,7 +10,8 @@
 //! * `summary.json`: `scans`, `wall_s` (the SLAM's own time: tracking, loop closure, pose
 //!   graph, not reading the log or writing the map), `scans_per_second`, what the pipeline
 //!   did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
-//!   2009).
+//!   2009); for a relations file, also which of its relations the log's own scans dispute and
+//!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]).
 
 use std::fs;
 use std::io::{self, BufWriter, Write};
@@ -18,8 +19,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use host::evaluation::{
-    PairingOptions, ReferenceRelationOptions, ReferenceRelations, Relation, RelationEvaluation,
-    StampedPose, Trajectory, evaluate_relations,
+    AgreementReport, PairingOptions, ReferenceRelationOptions, ReferenceRelations, Relation,
+    RelationEvaluation, StampedPose, Trajectory, evaluate_relations,
 };
 use host::grid::{MapExport, MapExportOptions};
 use host::scan_match::{Pose2, Scan};
@@ -72,6 +73,9 @@ pub struct SlamReplaySummary {
     /// Error on the given relations, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relations: Option<RelationEvaluation>,
+    /// Which of the given relations the log's scans dispute, and the error without them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relations_agreement: Option<AgreementReport>,
     /// Error on relations between consecutive scans of the reference, if given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_consecutive: Option<RelationEvaluation>,
@@ -193,15 +197,24 @@ pub fn replay_carmen_slam(
         .map(|(l, pose)| StampedPose::new(l.timestamp_s, *pose))
         .collect();
     let pairing = PairingOptions::default();
-    let relations = match &options.relations {
+    let scan_at = |t_s: f64| {
+        let index = lasers
+            .iter()
+            .position(|l| (l.timestamp_s - t_s).abs() <= pairing.timestamp_tolerance_s)?;
+        scans.get(index)
+    };
+    let (relations, relations_agreement) = match &options.relations {
         Some(path) => {
             let relations: Vec<Relation> = read_relations(path)?
                 .iter()
                 .map(|r| Relation::new(r.t1_s, r.t2_s, Pose2::new(r.x_m, r.y_m, r.yaw_rad)))
                 .collect();
-            Some(evaluate_relations(&relations, &trajectory, &pairing))
+            let evaluation = evaluate_relations(&relations, &trajectory, &pairing);
+            let agreement =
+                AgreementReport::new(&relations, &evaluation, &trajectory, &pairing, scan_at);
+            (Some(evaluation), Some(agreement))
         }
-        None => None,
+        None => (None, None),
     };
     let (reference_consecutive, reference_revisits) = match &options.reference {
         Some(path) => {
@@ -230,6 +243,7 @@ pub fn replay_carmen_slam(
         odometry: options.odometry,
         slam: result.stats,
         relations,
+        relations_agreement,
         reference_consecutive,
         reference_revisits,
     };

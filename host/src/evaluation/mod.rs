@@ -17,12 +17,15 @@
 //!   relation and their [`ErrorSummary`].
 //! * [`ReferenceRelations`] with [`ReferenceRelationOptions`]: relations built from a reference
 //!   trajectory (consecutive scans and revisits), for logs without published relations.
+//! * [`AgreementReport`]: which relations the log's own scans dispute (they line up far worse
+//!   at the true relative pose than at the estimate), and the error without them.
 
 mod error_summary;
 mod reference_relations;
 mod relation;
 mod relation_evaluation;
 mod relation_residual;
+mod scan_agreement;
 mod trajectory;
 
 pub use error_summary::ErrorSummary;
@@ -30,4 +33,7 @@ pub use reference_relations::{ReferenceRelationOptions, ReferenceRelations};
 pub use relation::Relation;
 pub use relation_evaluation::{PairingOptions, RelationEvaluation, evaluate_relations};
 pub use relation_residual::RelationResidual;
+pub use scan_agreement::{
+    AGREEMENT_DISTANCE_M, AgreementReport, DISPUTE_MARGIN, RelationAgreement, scan_agreement,
+};
 pub use trajectory::{StampedPose, Trajectory};
