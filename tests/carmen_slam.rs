@@ -19,18 +19,30 @@ fn replay(
 ) -> Option<(SlamReplaySummary, PathBuf)> {
     let clf = datasets::require(&format!("benchmark/{log}.clf"), test)?;
     let reference = datasets::require(&format!("benchmark/{log}.reference.tsv"), test)?;
-    let out = std::env::temp_dir().join(format!("carmen-{log}-{}", std::process::id()));
     let options = SlamReplayOptions {
+        reference: Some(reference),
+        ..options_without_odometry(log, clf, first_scans)
+    };
+    Some((replay_carmen_slam(&options).expect("replay"), options.out))
+}
+
+/// Options for `clf` (its first `first_scans`) without odometry and with the default SLAM,
+/// writing to a temporary directory named after `log`; no relations and no reference.
+fn options_without_odometry(
+    log: &str,
+    clf: PathBuf,
+    first_scans: Option<usize>,
+) -> SlamReplayOptions {
+    SlamReplayOptions {
         log: clf,
-        out: out.clone(),
+        out: std::env::temp_dir().join(format!("carmen-{log}-{}", std::process::id())),
         odometry: false,
         no_return_from_m: 80.0,
         relations: None,
-        reference: Some(reference),
+        reference: None,
         slam: SlamOptions::default(),
         first_scans,
-    };
-    Some((replay_carmen_slam(&options).expect("replay"), out))
+    }
 }
 
 /// Intel's scans 344 and 345, a turn on the spot: its relation 738 puts them 26.7° apart, where
@@ -45,16 +57,9 @@ fn intel_relations_the_scans_dispute_are_named() {
     let Some(relations) = datasets::require("benchmark/intel.relations", test) else {
         return;
     };
-    let out = std::env::temp_dir().join(format!("carmen-intel-{}", std::process::id()));
     let options = SlamReplayOptions {
-        log: clf,
-        out: out.clone(),
-        odometry: false,
-        no_return_from_m: 80.0,
         relations: Some(relations),
-        reference: None,
-        slam: SlamOptions::default(),
-        first_scans: Some(350),
+        ..options_without_odometry("intel", clf, Some(350))
     };
     let summary = replay_carmen_slam(&options).expect("replay");
     let evaluation = summary.relations.expect("relations evaluated");
@@ -74,7 +79,7 @@ fn intel_relations_the_scans_dispute_are_named() {
         agreement.undisputed_summary.mean_rotation_deg < evaluation.summary.mean_rotation_deg,
         "{agreement:?}"
     );
-    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&options.out);
 }
 
 #[test]
