@@ -150,7 +150,9 @@ enum Command {
     /// `x_m y_m theta_rad`), OUT/map.pgm + OUT/map.yaml (ROS map_server) and OUT/map.png, and
     /// OUT/summary.json (`scans`, `wall_s`, `scans_per_second`, and the error on the relations
     /// given, Kümmerle et al. 2009). LOG.relations and LOG.reference.tsv beside the log (LOG
-    /// without its extension) are used when present.
+    /// without its extension) are used when present. For a relations file it also names the
+    /// relations the log's own scans dispute (the two scans line up far worse at the true
+    /// relative pose than at the estimate) and gives the error without them.
     ReplayCarmen {
         /// The CARMEN log (FLASER / ROBOTLASER1; `.gz` is read too).
         log: PathBuf,
