@@ -34,6 +34,6 @@ pub use relation::Relation;
 pub use relation_evaluation::{PairingOptions, RelationEvaluation, evaluate_relations};
 pub use relation_residual::RelationResidual;
 pub use scan_agreement::{
-    AGREEMENT_DISTANCE_M, AgreementReport, DISPUTE_MARGIN, RelationAgreement, scan_agreement,
+    AGREEMENT_DISTANCE_M, AgreementReport, DISPUTE_MARGIN, RelationAgreement, ScanAgreement,
 };
 pub use trajectory::{StampedPose, Trajectory};

@@ -30,32 +30,49 @@ pub const AGREEMENT_DISTANCE_M: f64 = 0.05;
 /// that is lower by more than this than the share the estimate leaves.
 pub const DISPUTE_MARGIN: f64 = 0.2;
 
-/// The share of `scan2`'s end points within `within_m` of an end point of `scan1`, with
-/// `scan2` placed at `robot1_from_robot2` in `scan1`'s robot frame. `None` when either scan
-/// has no end point.
-pub fn scan_agreement(
-    scan1: &Scan,
-    scan2: &Scan,
-    robot1_from_robot2: Pose2,
+/// Two scans, the first's end points indexed, to place the second on it at several poses.
+#[derive(Clone, Debug)]
+pub struct ScanAgreement {
+    /// The first scan's end points, robot frame.
+    grid: PointGrid,
+    /// The second scan's end points, robot frame.
+    points2: Vec<[f64; 2]>,
     within_m: f64,
-) -> Option<f64> {
-    let mut grid = PointGrid::new(within_m);
-    for point in scan1.points_in_robot().iter().flatten() {
-        grid.push(*point);
+}
+
+impl ScanAgreement {
+    /// `scan1` and `scan2`, end points within `within_m` counting as agreeing. `None` when
+    /// either scan has no end point.
+    pub fn new(scan1: &Scan, scan2: &Scan, within_m: f64) -> Option<Self> {
+        let mut grid = PointGrid::new(within_m);
+        for point in scan1.points_in_robot().iter().flatten() {
+            grid.push(*point);
+        }
+        let points2: Vec<[f64; 2]> = scan2.points_in_robot().iter().flatten().copied().collect();
+        (!grid.points().is_empty() && !points2.is_empty()).then_some(ScanAgreement {
+            grid,
+            points2,
+            within_m,
+        })
     }
-    let points2: Vec<[f64; 2]> = scan2.points_in_robot().iter().flatten().copied().collect();
-    if grid.points().is_empty() || points2.is_empty() {
-        return None;
+
+    /// The share of the second scan's end points within the distance of an end point of the
+    /// first, with the second placed at `robot1_from_robot2` in the first's robot frame.
+    pub fn share_at(&self, robot1_from_robot2: Pose2) -> f64 {
+        let agreeing = self
+            .points2
+            .iter()
+            .filter(|&&p| {
+                let moved = robot1_from_robot2.transform_point(p);
+                self.grid.any_within(moved, self.within_m)
+            })
+            .count();
+        agreeing as f64 / self.points2.len() as f64
     }
-    let agreeing = points2
-        .iter()
-        .filter(|&&p| grid.any_within(robot1_from_robot2.transform_point(p), within_m))
-        .count();
-    Some(agreeing as f64 / points2.len() as f64)
 }
 
 /// How well the scans at a relation's two timestamps line up at the estimated and at the true
-/// relative pose ([`scan_agreement`] within [`AGREEMENT_DISTANCE_M`]).
+/// relative pose ([`ScanAgreement`] within [`AGREEMENT_DISTANCE_M`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RelationAgreement {
     /// The relation's index in the list that was evaluated.
@@ -113,19 +130,16 @@ impl AgreementReport {
             ) else {
                 continue;
             };
-            let estimated = pose1.pose_in_map.inverse() * pose2.pose_in_map;
-            let share = |pose| scan_agreement(scan1, scan2, pose, AGREEMENT_DISTANCE_M);
-            let (Some(estimated_share), Some(true_share)) =
-                (share(estimated), share(relation.true_from1_to2))
-            else {
+            let Some(scans) = ScanAgreement::new(scan1, scan2, AGREEMENT_DISTANCE_M) else {
                 continue;
             };
+            let estimated = pose1.pose_in_map.inverse() * pose2.pose_in_map;
             let agreement = RelationAgreement {
                 relation_index: residual.relation_index,
                 t1_s: residual.t1_s,
                 t2_s: residual.t2_s,
-                estimated_share,
-                true_share,
+                estimated_share: scans.share_at(estimated),
+                true_share: scans.share_at(relation.true_from1_to2),
             };
             if agreement.is_disputed() {
                 disputed.push(agreement);
@@ -157,9 +171,10 @@ mod tests {
             cast_front_scan(&walls, pose2),
         );
         let truth = pose1.inverse() * pose2;
-        let at_truth = scan_agreement(&scan1, &scan2, truth, AGREEMENT_DISTANCE_M).unwrap();
+        let scans = ScanAgreement::new(&scan1, &scan2, AGREEMENT_DISTANCE_M).unwrap();
+        let at_truth = scans.share_at(truth);
         let turned = truth * Pose2::new(0.0, 0.0, 5f64.to_radians());
-        let off = scan_agreement(&scan1, &scan2, turned, AGREEMENT_DISTANCE_M).unwrap();
+        let off = scans.share_at(turned);
         assert!(at_truth > 0.8, "{at_truth}");
         assert!(off < at_truth - DISPUTE_MARGIN, "{off} against {at_truth}");
     }
@@ -168,8 +183,8 @@ mod tests {
     fn an_empty_scan_has_no_share() {
         let scan = cast_front_scan(&irregular_room_walls(), Pose2::IDENTITY);
         let empty = Scan::from_points_in_robot(vec![None; 3]);
-        assert_eq!(scan_agreement(&scan, &empty, Pose2::IDENTITY, 0.05), None);
-        assert_eq!(scan_agreement(&empty, &scan, Pose2::IDENTITY, 0.05), None);
+        assert!(ScanAgreement::new(&scan, &empty, 0.05).is_none());
+        assert!(ScanAgreement::new(&empty, &scan, 0.05).is_none());
     }
 
     #[test]
