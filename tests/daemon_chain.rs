@@ -21,10 +21,10 @@ use std::time::{Duration, Instant};
 use hil_sim::demo::{self, DemoOptions};
 use hil_sim::pty::PtyLink;
 use hil_sim::world::WorldKind;
-use host::daemon::config::{DaemonConfig, SlamMethod};
-use host::daemon::replay::replay;
-use host::daemon::runner::{Daemon, SerialPortOpener};
 use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, Message, RangeUnit, ScanMsg};
+use robot_host::config::{DaemonConfig, SlamMethod};
+use robot_host::replay::replay;
+use robot_host::runner::{Daemon, SerialPortOpener};
 
 /// The demos run the whole chain in real time on pseudo-terminals. Two at once on a two-core
 /// machine compete for the cores the firmware's timing depends on, so they take turns.
@@ -167,7 +167,7 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
         replay(&out.join("run.mcap"), &config, None, false).expect("the recording replays");
     assert!(!truncated);
     let replayed = out.join("replayed");
-    host::daemon::outputs::write_outputs(&replayed, &outcome, None).expect("outputs");
+    robot_host::outputs::write_outputs(&replayed, &outcome, None).expect("outputs");
     let again = fs::read_to_string(replayed.join("trajectory.tsv")).expect("trajectory");
     assert_eq!(
         again, trajectory,

@@ -1,6 +1,6 @@
 //! The daemon's web view in a real browser.
 //!
-//! Starts `host::daemon::web::WebServer` in-process on 127.0.0.1 with a live state holding a
+//! Starts `robot_host::web::WebServer` in-process on 127.0.0.1 with a live state holding a
 //! trajectory, landmarks, a small occupancy grid, a pose with its covariance, counters and a
 //! generated 400 × 300 geo-referenced image, then drives Debian's headless Chromium over the
 //! DevTools protocol: the page must show the counters from the state and follow them when they
@@ -22,9 +22,9 @@ use std::time::{Duration, Instant};
 use headless_chrome::browser::tab::point::Point;
 use headless_chrome::protocol::cdp::Page::CaptureScreenshotFormatOption;
 use headless_chrome::{Browser, LaunchOptions, Tab};
-use host::daemon::state::{GridView, ImageView, LandmarkView};
-use host::daemon::web::{WebContext, WebServer};
-use host::daemon::{
+use robot_host::state::{GridView, ImageView, LandmarkView};
+use robot_host::web::{WebContext, WebServer};
+use robot_host::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };
 

@@ -22,9 +22,10 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use host::geometry::Pose2;
 use host::scan_match::{
-    FastMatcher, MatchResult, Pose2, RasterOptions, ReferenceMatcher, Scan, ScanMatchError,
-    ScanMatcher, SearchTable,
+    FastMatcher, MatchResult, RasterOptions, ReferenceMatcher, Scan, ScanMatchError, ScanMatcher,
+    SearchTable,
 };
 use serde::Serialize;
 

@@ -13,11 +13,11 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use host::daemon::LinkCounters;
-use host::daemon::config::{DaemonConfig, SlamMethod};
-use host::daemon::outputs::write_outputs;
-use host::daemon::runner::{Daemon, SerialPortOpener};
 use host::geoimage::{GeoImage, GeographicGeoref, write_geotiff_geographic_rgb8};
+use robot_host::LinkCounters;
+use robot_host::config::{DaemonConfig, SlamMethod};
+use robot_host::outputs::write_outputs;
+use robot_host::runner::{Daemon, SerialPortOpener};
 use serde::Serialize;
 
 use crate::faults::FaultSpec;
@@ -97,7 +97,7 @@ pub struct DemoReady {
     /// The Foxglove stream.
     pub foxglove: Option<SocketAddr>,
     /// The daemon's live state.
-    pub state: host::daemon::SharedState,
+    pub state: robot_host::SharedState,
 }
 
 /// Runs the demo: writes the aerial image, starts the daemon, calls `ready` once it serves,

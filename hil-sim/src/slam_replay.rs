@@ -1,4 +1,4 @@
-//! `hil-sim replay-carmen`: the occupancy-grid SLAM ([`host::slam`]) over a CARMEN laser log,
+//! `hil-sim replay-carmen`: method 2 ([`host::slam::GridPipeline`]) over a CARMEN laser log,
 //! its map exported, and its accuracy measured on ground-truth relations when they are given.
 //!
 //! Outputs in the output directory:
@@ -22,9 +22,10 @@ use host::evaluation::{
     AgreementReport, PairingOptions, ReferenceRelationOptions, ReferenceRelations, Relation,
     RelationEvaluation, StampedPose, Trajectory, evaluate_relations,
 };
+use host::geometry::Pose2;
 use host::grid::{MapExport, MapExportOptions};
-use host::scan_match::{Pose2, Scan};
-use host::slam::{GraphSlam, SlamOptions, SlamStats};
+use host::scan_match::Scan;
+use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions, SlamStats};
 use serde::Serialize;
 
 use crate::replay::{CarmenLog, LaserRecord, LogError, read_reference, read_relations};
@@ -153,16 +154,20 @@ pub fn replay_carmen_slam(
         .collect();
 
     let started = Instant::now();
-    let mut slam = GraphSlam::new(options.slam.clone())?;
+    let mut pipeline = GridPipeline::new(GridPipelineOptions {
+        slam: options.slam.clone(),
+        map_resolution_m: MAP_RESOLUTION_M,
+    })?;
     for (laser, scan) in lasers.iter().zip(&scans) {
         let odometry = options.odometry.then(|| {
             let p = laser.robot_pose;
             Pose2::new(p.x_m, p.y_m, p.theta_rad)
         });
-        slam.add_scan(scan, odometry);
+        pipeline.add_scan(laser.timestamp_s, scan, odometry);
     }
-    let result = slam.finish(&scans);
+    pipeline.finish();
     let wall_s = started.elapsed().as_secs_f64();
+    let poses_in_map = pipeline.poses_in_map();
 
     let write_error = |path: &Path| {
         let path = path.to_path_buf();
@@ -170,15 +175,10 @@ pub fn replay_carmen_slam(
     };
     fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
     let trajectory_path = options.out.join("trajectory.tsv");
-    write_trajectory(&trajectory_path, &lasers, &result.poses_in_map)
+    write_trajectory(&trajectory_path, &lasers, &poses_in_map)
         .map_err(write_error(&trajectory_path))?;
     // The map holds the beams the SLAM trusted.
-    let trusted: Vec<Scan> = scans
-        .iter()
-        .map(|s| options.slam.trusted_beams(s))
-        .collect();
-    let grid = result.global_grid(&trusted, MAP_RESOLUTION_M);
-    let export = MapExport::from_grid(&grid, &MapExportOptions::default());
+    let export = MapExport::from_grid(&pipeline.global_grid(), &MapExportOptions::default());
     for (name, save) in [
         (
             "map.pgm",
@@ -193,7 +193,7 @@ pub fn replay_carmen_slam(
 
     let trajectory: Trajectory = lasers
         .iter()
-        .zip(&result.poses_in_map)
+        .zip(&poses_in_map)
         .map(|(l, pose)| StampedPose::new(l.timestamp_s, *pose))
         .collect();
     let pairing = PairingOptions::default();
@@ -241,7 +241,7 @@ pub fn replay_carmen_slam(
         scans_per_second: scans.len() as f64 / wall_s.max(1e-9),
         log: options.log.display().to_string(),
         odometry: options.odometry,
-        slam: result.stats,
+        slam: pipeline.stats(),
         relations,
         relations_agreement,
         reference_consecutive,

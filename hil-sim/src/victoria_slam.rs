@@ -565,7 +565,7 @@ fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) ->
             .map(|a| a.enu_from_map)
             .unwrap_or_default()
     } else {
-        host::scan_match::Pose2::IDENTITY
+        host::geometry::Pose2::IDENTITY
     };
     let mut distances: Vec<f64> = pairs
         .iter()

@@ -33,7 +33,7 @@ use host::ekf_slam::{
     DifferentialDriveInput, DifferentialDriveModel, LandmarkObservation, RangeBearingModel,
     SubmapSlam, SubmapSlamOptions,
 };
-use host::scan_match::wrap_angle_rad;
+use host::geometry::wrap_angle_rad;
 
 /// Distance between neighbouring trees along a row, metres.
 const SPACING_M: f64 = 3.0;

@@ -9,9 +9,10 @@ use std::f64::consts::FRAC_PI_2;
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use host::geometry::Pose2;
 use host::scan_match::synthetic::{WallInMap, cast_scan, polygon_walls};
 use host::scan_match::{
-    FastMatcher, Pose2, RasterOptions, ReferenceMatcher, Scan, ScanMatcher, SearchTable,
+    FastMatcher, RasterOptions, ReferenceMatcher, Scan, ScanMatcher, SearchTable,
 };
 
 /// An L-shaped room about 9 m × 7 m with a square pillar.

@@ -12,16 +12,19 @@
 //!   Foxglove and for replay.
 //! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
 
-pub mod daemon;
 pub mod ekf_slam;
 pub mod evaluation;
 mod floor;
 pub mod geoimage;
+pub mod geometry;
 pub mod georef;
 pub mod grid;
 pub mod landmarks;
 pub mod link;
 pub mod pose_graph;
+mod pose_view;
 pub mod recording;
 pub mod scan_match;
 pub mod slam;
+
+pub use pose_view::PoseView;

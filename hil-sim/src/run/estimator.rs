@@ -7,8 +7,9 @@
 //! robot's pose at its first scan. Without loop closure this drifts; the full SLAM methods
 //! replace it.
 
+use host::geometry::Pose2;
 use host::link::LaserScan;
-use host::scan_match::{FastMatcher, Pose2, PreparedReference, RasterOptions, Scan, SearchTable};
+use host::scan_match::{FastMatcher, PreparedReference, RasterOptions, Scan, SearchTable};
 use protocol::{GpsFixMsg, MeasuringMode, ScanMsg};
 
 /// A new keyframe after this much travel, m.

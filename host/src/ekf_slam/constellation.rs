@@ -54,7 +54,7 @@ type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
 
 use super::landmark_info::LandmarkInfo;
 use super::submap_slam::MappedLandmark;
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// Side of the cells of the spatial hash of old landmarks, metres.
 const CELL_SIZE_M: f64 = 4.0;

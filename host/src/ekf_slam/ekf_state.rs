@@ -12,7 +12,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
 
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// Index of the heading in the state vector.
 const THETA: usize = 2;

@@ -1,13 +1,13 @@
 //! Pose composition with its Jacobians: the building block of the motion and observation
 //! models and of map joining.
 //!
-//! A pose is `[x_m, y_m, theta_rad]`, read as `a_from_b` (see [`crate::scan_match::Pose2`]):
+//! A pose is `[x_m, y_m, theta_rad]`, read as `a_from_b` (see [`crate::geometry::Pose2`]):
 //! composing `a_from_b ⊕ b_from_c` gives `a_from_c`, and `a_from_b ⊕ point_in_b` gives
 //! `point_in_a`. The Jacobians are those of Smith, Self and Cheeseman's compounding operator.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3};
 
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// `a_from_c = a_from_b ⊕ b_from_c`, with the Jacobians with respect to `a_from_b` and to
 /// `b_from_c`.

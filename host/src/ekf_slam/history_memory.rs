@@ -37,7 +37,7 @@ use super::constellation::{
     Constellation, ConstellationOptions, PlaceMatch, centroid_in_map, transform,
 };
 use super::submap_slam::MappedLandmark;
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// Settings of [`HistoryMemory`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -27,7 +27,7 @@ use super::frames::transform_point;
 use super::motion_model::MotionModel;
 use super::range_bearing::{LandmarkObservation, RangeBearingModel};
 use super::submap_slam::MappedLandmark;
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// Settings of [`MapSmoother`].
 #[derive(Debug, Clone, Copy, PartialEq)]

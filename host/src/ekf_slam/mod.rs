@@ -15,11 +15,13 @@
 //! * [`MapSmoother`]: the trajectory estimated again against the finished map, forwards and
 //!   backwards.
 //! * [`GpsAnchor`]: GPS fixes align the map to the GPS frame, then update the filter.
+//! * [`EkfPipeline`]: the method on the board link's events (trees from each scan, fixes).
 
 pub mod ackermann;
 pub mod constant_velocity;
 pub mod constellation;
 pub mod differential_drive;
+mod ekf_pipeline;
 pub mod ekf_state;
 pub mod frames;
 pub mod global_map;
@@ -39,6 +41,7 @@ pub use ackermann::{AckermannGeometry, AckermannInput, AckermannModel};
 pub use constant_velocity::ConstantVelocityModel;
 pub use constellation::{Constellation, ConstellationOptions, PlaceMatch};
 pub use differential_drive::{DifferentialDriveInput, DifferentialDriveModel};
+pub use ekf_pipeline::{EkfPipeline, EkfPipelineOptions, EkfPipelineStats, StampedPose};
 pub use ekf_state::{EkfError, EkfState};
 pub use global_map::{GlobalMap, JoinReport};
 pub use gps_anchor::{GpsAnchor, GpsAnchorOptions, GpsOutcome};

@@ -48,7 +48,7 @@ pub(crate) fn midpoint_step(
     let next = [
         pose[0] + speed_mps * dt_s * cos,
         pose[1] + speed_mps * dt_s * sin,
-        crate::scan_match::wrap_angle_rad(pose[2] + yaw_rate_radps * dt_s),
+        crate::geometry::wrap_angle_rad(pose[2] + yaw_rate_radps * dt_s),
     ];
     // Columns: d/dtheta, d/dspeed, d/dyaw_rate; rows: x, y, theta.
     let d = [

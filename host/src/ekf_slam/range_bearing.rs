@@ -8,7 +8,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 
 use super::frames::{compose_pose, transform_point};
-use crate::scan_match::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// One landmark seen in a scan, in the sensor frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

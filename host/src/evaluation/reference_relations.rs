@@ -134,7 +134,7 @@ fn revisits<'a>(
 mod tests {
     use super::*;
     use crate::evaluation::{PairingOptions, evaluate_relations};
-    use crate::scan_match::Pose2;
+    use crate::geometry::Pose2;
     use std::f64::consts::TAU;
 
     /// `laps` laps of a circle of radius 5 m, `per_lap` poses a lap, heading along the circle,

@@ -4,7 +4,7 @@
 //! `(x, y, yaw)` is the robot's pose at `t2` expressed in the robot frame at `t1`; in the
 //! naming of [`Pose2`] that is `robot1_from_robot2`, here `true_from1_to2`.
 
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 use super::relation_residual::RelationResidual;
 

@@ -77,7 +77,7 @@ pub fn evaluate_relations(
 mod tests {
     use super::*;
     use crate::evaluation::StampedPose;
-    use crate::scan_match::Pose2;
+    use crate::geometry::Pose2;
 
     /// A robot driving a square of side 2 m, one pose a second, turning 90° at each corner.
     fn square() -> Vec<StampedPose> {

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// The error pose `ε = inverse(true_from1_to2) * estimated_from1_to2` of one relation, reduced
 /// to its translation length and the magnitude of its angle.

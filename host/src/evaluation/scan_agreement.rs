@@ -19,7 +19,8 @@ use super::error_summary::ErrorSummary;
 use super::relation::Relation;
 use super::relation_evaluation::{PairingOptions, RelationEvaluation};
 use super::trajectory::Trajectory;
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 use crate::slam::point_grid::PointGrid;
 
 /// End points within this distance of the other scan's count as agreeing, metres: a few

@@ -4,7 +4,7 @@
 //! for instance, differ from the log's scan timestamps in the last printed digits), so a lookup
 //! takes the pose nearest in time within a tolerance rather than an exact match.
 
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// The robot's pose in the map at one timestamp.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -31,7 +31,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 
 use super::{GeoRefError, GpsMeasurement};
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// Gauss-Newton stops once a step moves the translation less than this, metres…
 const TRANSLATION_STEP_TOLERANCE_M: f64 = 1e-10;

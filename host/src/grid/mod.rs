@@ -1,5 +1,4 @@
-//! Occupancy grids for 2D laser SLAM: building them from scans, matching scans against them with
-//! sub-cell precision, and exporting them as maps.
+//! Occupancy grids for 2D laser SLAM: building them from scans, and exporting them as maps.
 //!
 //! The layout follows Cartographer's `mapping/2d`, one concept per file:
 //!
@@ -9,27 +8,20 @@
 //!   optimised trajectory.
 //! * [`RangeInserter`]: one scan into a grid by ray casting, hits at beam ends, misses on the way.
 //! * [`Submap`]: a grid in its own frame, placed in the map, built from consecutive scans.
-//! * [`InterpolatedGrid`] and [`ScanRefiner`]: the grid as a smooth function (bicubic, sharp
-//!   and smoothed) and a damped Newton refinement of a scan's pose on it, coarse to fine, to a
-//!   fraction of a cell.
 //! * [`MapExport`]: a grid as a ROS `map_server` map (PGM or PNG image and YAML metadata).
 //!
 //! Frames: a grid's coordinates are in its *grid frame*, the submap frame for a submap and the
-//! map frame for the global map. Poses follow [`crate::scan_match::Pose2`]: `grid_from_robot`
+//! map frame for the global map. Poses follow [`crate::geometry::Pose2`]: `grid_from_robot`
 //! maps points of the robot frame into the grid frame.
 
-mod interpolated_grid;
 mod map_export;
 mod map_limits;
 mod probability_grid;
 mod range_inserter;
-mod scan_refiner;
 mod submap;
 
-pub use interpolated_grid::{GridLevel, InterpolatedGrid, InterpolatedProbability};
 pub use map_export::{FREE_PIXEL, MapExport, MapExportOptions, OCCUPIED_PIXEL, UNKNOWN_PIXEL};
 pub use map_limits::{CellIndex, MapLimits};
 pub use probability_grid::{MAX_SIDE_CELLS, ProbabilityGrid, ProbabilityGridOptions};
 pub use range_inserter::{RangeInserter, RangeInserterOptions};
-pub use scan_refiner::{Refinement, ScanRefiner, ScanRefinerOptions};
 pub use submap::{Submap, SubmapFinishedError, SubmapOptions};

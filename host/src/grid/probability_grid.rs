@@ -16,7 +16,8 @@ use serde::{Deserialize, Serialize};
 
 use super::map_limits::{CellIndex, MapLimits};
 use super::range_inserter::{RangeInserter, RangeInserterOptions};
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 
 /// Marks a cell nobody has observed.
 const UNKNOWN_LOG_ODDS: f32 = f32::NAN;

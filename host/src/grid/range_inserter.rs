@@ -21,7 +21,8 @@ use super::map_limits::CellIndex;
 #[cfg(doc)]
 use super::probability_grid::MAX_SIDE_CELLS;
 use super::probability_grid::{ProbabilityGrid, log_odds_from_probability};
-use crate::scan_match::{BresenhamLine, Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::{BresenhamLine, Scan};
 
 /// Evidence per observation and treatment of unusual beams.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

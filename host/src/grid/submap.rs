@@ -7,7 +7,7 @@
 //! scan was inserted, so the submap's grid is aligned with the robot's heading at that moment.
 //!
 //! A submap takes scans until it is finished; after that its grid no longer changes and the
-//! matcher's precomputed views of it (such as [`super::InterpolatedGrid`]) stay valid.
+//! matcher's precomputed views of it stay valid.
 
 use std::fmt;
 
@@ -15,7 +15,8 @@ use serde::{Deserialize, Serialize};
 
 use super::probability_grid::{ProbabilityGrid, ProbabilityGridOptions};
 use super::range_inserter::{RangeInserter, RangeInserterOptions};
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 
 /// How a submap's grid is built.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

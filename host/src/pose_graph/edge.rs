@@ -14,7 +14,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::error::PoseGraphError;
 use super::node::NodeId;
 use super::robust_kernel::RobustKernel;
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// The index of an edge in its [`PoseGraph`](super::PoseGraph), in the order edges were added.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

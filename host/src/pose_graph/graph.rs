@@ -15,7 +15,7 @@ use super::error::PoseGraphError;
 use super::node::{Node, NodeId};
 use super::normal_equations::NormalEquations;
 use super::optimizer::{OptimizeOptions, OptimizeReport, levenberg_marquardt, total_cost};
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// Robot poses and the relative-pose constraints between them.
 #[derive(Debug, Default)]

@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// The index of a node in its [`PoseGraph`](super::PoseGraph), in the order nodes were added.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

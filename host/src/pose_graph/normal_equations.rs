@@ -27,7 +27,7 @@ use super::edge::Edge;
 use super::error::PoseGraphError;
 use super::node::{Node, NodeId};
 use super::robust_kernel::{robust_cost, robust_weight};
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// Offsets into the value array of the three columns of one stored 3×3 block. In an
 /// off-diagonal block the entry in row `m`, column `k` is at `block[k] + m`; a diagonal block

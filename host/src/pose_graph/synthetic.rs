@@ -16,7 +16,7 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 use super::edge::Edge;
 use super::graph::PoseGraph;
 use super::node::NodeId;
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// Standard deviations of the measurement noise, and the seed of its generator.
 #[derive(Clone, Copy, Debug, PartialEq)]

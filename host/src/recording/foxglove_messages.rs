@@ -7,15 +7,15 @@ use foxglove::messages::{
 use protocol::GpsFixMsg;
 
 use super::topics::{GPS_FRAME, MAP_FRAME};
-use crate::daemon::PoseView;
+use crate::PoseView;
 
 /// A Foxglove timestamp of host time `time_s`, saturated to the representable range.
-pub(crate) fn timestamp(time_s: f64) -> Timestamp {
+pub fn timestamp(time_s: f64) -> Timestamp {
     Timestamp::saturating_from_epoch_secs_f64(time_s)
 }
 
 /// `pose` in the map frame, heading as a rotation about the z axis.
-pub(crate) fn pose_in_frame(pose: &PoseView) -> PoseInFrame {
+pub fn pose_in_frame(pose: &PoseView) -> PoseInFrame {
     let half_rad = 0.5 * pose.theta_rad;
     PoseInFrame {
         timestamp: Some(timestamp(pose.time_s)),
@@ -37,7 +37,7 @@ pub(crate) fn pose_in_frame(pose: &PoseView) -> PoseInFrame {
 }
 
 /// `pose` in WGS84, or `None` before the map is geo-referenced.
-pub(crate) fn pose_location(pose: &PoseView) -> Option<LocationFix> {
+pub fn pose_location(pose: &PoseView) -> Option<LocationFix> {
     let (lat_deg, lon_deg) = (pose.lat_deg?, pose.lon_deg?);
     Some(LocationFix {
         timestamp: Some(timestamp(pose.time_s)),
@@ -53,7 +53,7 @@ pub(crate) fn pose_location(pose: &PoseView) -> Option<LocationFix> {
 /// The altitude is above the ellipsoid when the receiver gives the geoid separation, above
 /// mean sea level otherwise. With the receiver's error statistics (GST) the covariance is the
 /// diagonal of east, north and up variances.
-pub(crate) fn gps_location(time_s: f64, fix: &GpsFixMsg) -> Option<LocationFix> {
+pub fn gps_location(time_s: f64, fix: &GpsFixMsg) -> Option<LocationFix> {
     let position = fix.position?;
     let altitude_mm = fix.alt_msl_mm.map_or(0, i64::from) + fix.geoid_sep_mm.map_or(0, i64::from);
     let variance_m2 = |sigma_mm: Option<u32>| sigma_mm.map(|s| (f64::from(s) * 1e-3).powi(2));

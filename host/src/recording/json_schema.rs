@@ -5,7 +5,7 @@ use schemars::generate::SchemaSettings;
 
 /// The JSON schema (draft 07) of `T`, serialised, with every definition inlined: Foxglove does
 /// not follow `$ref`s to definitions.
-pub(crate) fn json_schema_of<T: JsonSchema>() -> Vec<u8> {
+pub fn json_schema_of<T: JsonSchema>() -> Vec<u8> {
     let generator = SchemaSettings::draft07()
         .with(|settings| settings.inline_subschemas = true)
         .into_generator();

@@ -9,12 +9,14 @@
 //! * [`Recorder`]: writes a recording as the run goes.
 //! * [`read_recording`]: reads one back, cut short or not.
 //! * [`topics`]: the channels the host writes besides the board's ([`board_topic`]).
+//! * [`foxglove_messages`] and [`json_schema`]: the encodings the recording shares with the
+//!   daemon's live view.
 
 mod board_message;
 mod durable_file;
 mod error;
-pub(crate) mod foxglove_messages;
-pub(crate) mod json_schema;
+pub mod foxglove_messages;
+pub mod json_schema;
 pub mod reader;
 pub mod recorder;
 pub mod topics;

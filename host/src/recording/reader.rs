@@ -178,7 +178,7 @@ mod tests {
     };
 
     use super::*;
-    use crate::daemon::PoseView;
+    use crate::PoseView;
     use crate::link::LinkReader;
     use crate::recording::topics::{GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC};
     use crate::recording::{Recorder, RecorderOptions, board_topic};

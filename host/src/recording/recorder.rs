@@ -38,7 +38,7 @@ use super::topics::{
     GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC, RAW_ENCODING, RAW_TOPIC, RECONNECT_TOPIC,
     SENT_TOPIC,
 };
-use crate::daemon::PoseView;
+use crate::PoseView;
 
 /// Options of [`Recorder`].
 #[derive(Debug, Clone, PartialEq)]

@@ -33,7 +33,6 @@
 use std::collections::BinaryHeap;
 
 use super::bit_grid::BitGrid;
-use super::pose::Pose2;
 use super::precomputation_grid::PrecomputationGrids;
 use super::rotated_scan::RotatedScan;
 use super::scan::Scan;
@@ -41,6 +40,7 @@ use super::search::{
     Candidate, MatchResult, Polyline, RasterOptions, ScanMatchError, ScanMatcher, SearchTable,
     check_guess, validate,
 };
+use crate::geometry::Pose2;
 
 /// Deepest supported branch-and-bound level (blocks of `2^16` translations a side).
 pub const MAX_BRANCH_AND_BOUND_DEPTH: u32 = 16;

@@ -11,15 +11,13 @@
 //! * [`ReferenceMatcher`]: the method as stated, one raster per candidate. It defines the answer.
 //! * [`FastMatcher`]: exactly the same answer by branch and bound over bit-packed, max-pooled
 //!   rasters.
-//! * [`match_incremental`]: the new pose `P_new = P_old * M` from a match.
-//! * [`Scan`], [`Pose2`]: the inputs, in the robot frame (x forward, y left, theta CCW).
+//! * [`Scan`]: the input, end points in the robot frame (x forward, y left); poses are
+//!   [`crate::geometry::Pose2`].
 //! * [`synthetic`]: scans cast in a world of walls, for tests and benchmarks.
 
 mod bit_grid;
 mod bresenham;
 mod fast_matcher;
-mod incremental;
-mod pose;
 mod precomputation_grid;
 mod reference_matcher;
 mod rotated_scan;
@@ -30,8 +28,6 @@ pub mod synthetic;
 
 pub use bresenham::BresenhamLine;
 pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH, PreparedReference};
-pub use incremental::{IncrementalMatch, match_incremental};
-pub use pose::{Pose2, wrap_angle_rad};
 pub use reference_matcher::ReferenceMatcher;
 pub use scan::Scan;
 pub use search::{Candidate, MatchResult, RasterOptions, ScanMatchError, ScanMatcher, SearchTable};

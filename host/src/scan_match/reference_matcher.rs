@@ -7,12 +7,12 @@
 //! cost is one full raster clear, two drawings and one full count per candidate. It exists to
 //! define the answer: [`super::FastMatcher`] must return exactly the same candidate and score.
 
-use super::pose::Pose2;
 use super::scan::Scan;
 use super::search::{
     Candidate, MatchResult, Polyline, RasterOptions, ScanMatchError, ScanMatcher, SearchTable,
     check_guess, validate,
 };
+use crate::geometry::Pose2;
 
 /// Exhaustive raster-overlap matcher over a [`SearchTable`].
 #[derive(Clone, Debug)]

@@ -240,7 +240,7 @@ mod spare_grids {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan_match::pose::Pose2;
+    use crate::geometry::Pose2;
     use crate::scan_match::scan::Scan;
 
     /// Checks `uncovered_px` against drawing each shifted candidate directly, on a raster of

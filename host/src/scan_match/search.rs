@@ -44,8 +44,8 @@
 use std::fmt;
 
 use super::bresenham::BresenhamLine;
-use super::pose::Pose2;
 use super::scan::Scan;
+use crate::geometry::Pose2;
 
 /// Vertices farther than this many pixels from the raster origin (along either axis) are treated
 /// as beams without a return, which bounds the cost of drawing one line.

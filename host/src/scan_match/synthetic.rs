@@ -3,8 +3,8 @@
 //! Each beam is cast from the sensor (at the robot origin) and stops at the nearest wall; a beam
 //! that hits nothing within range has no return.
 
-use super::pose::Pose2;
 use super::scan::Scan;
+use crate::geometry::Pose2;
 
 /// A wall from one end point to the other, in map coordinates (metres).
 pub type WallInMap = [[f64; 2]; 2];

@@ -11,7 +11,7 @@
 
 use nalgebra::Matrix3;
 
-use crate::scan_match::Pose2;
+use crate::geometry::Pose2;
 
 /// How closures are confirmed.
 #[derive(Clone, Copy, Debug, PartialEq)]

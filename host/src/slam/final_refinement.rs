@@ -18,7 +18,8 @@ use super::closure_confirmation::FoundClosure;
 use super::icp::align;
 use super::options::{RefinementOptions, SlamOptions};
 use super::slam_submap::SlamSubmap;
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 
 /// The constraints found for `scans` (in node order, the beams the SLAM trusted) at
 /// `poses_in_map` (the optimised graph, one per scan) in `submaps`. See the

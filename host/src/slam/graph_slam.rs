@@ -9,9 +9,10 @@ use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
+use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{Edge, NodeId, PoseGraph, RobustKernel};
-use crate::scan_match::{Pose2, PreparedReference, Scan, ScanMatchError};
+use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]

@@ -17,7 +17,7 @@
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
 use super::point_map::{MapPoint, PointMap};
-use crate::scan_match::{Pose2, wrap_angle_rad};
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// How the alignment runs.
 #[derive(Clone, Debug, PartialEq)]

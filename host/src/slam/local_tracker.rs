@@ -30,7 +30,8 @@ use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
 use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::scan_match::{FastMatcher, Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::{FastMatcher, Scan};
 
 /// What tracking made of one scan.
 #[derive(Clone, Debug)]

@@ -16,7 +16,8 @@ use super::icp::align;
 use super::options::LoopClosureOptions;
 use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
-use crate::scan_match::{FastMatcher, Pose2, PreparedReference, Scan, ScanMatchError};
+use crate::geometry::Pose2;
+use crate::scan_match::{FastMatcher, PreparedReference, Scan, ScanMatchError};
 
 /// A scan found in a submap.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -24,12 +24,14 @@
 //!   on the finished submaps near it, and the alignments that fit become constraints too.
 //!
 //! [`GraphSlam`] runs the whole, [`GraphSlam::finish`] refines and returns the optimised poses and
-//! [`SlamResult::global_grid`] draws the global map from them.
+//! [`SlamResult::global_grid`] draws the global map from them. [`GridPipeline`] is the method as
+//! every adapter runs it: time-stamped scans in, poses, trajectory and the global grid out.
 
 pub mod closure_confirmation;
 pub mod degeneracy;
 pub mod final_refinement;
 mod graph_slam;
+mod grid_pipeline;
 pub mod icp;
 mod local_tracker;
 mod loop_closer;
@@ -41,6 +43,7 @@ mod slam_submap;
 mod window_matcher;
 
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
+pub use grid_pipeline::{GridPipeline, GridPipelineOptions};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
 pub use options::{

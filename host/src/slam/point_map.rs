@@ -9,7 +9,8 @@
 //! does not grow the map.
 
 use super::point_grid::PointGrid;
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 
 /// Cell size of the grid that indexes the points, metres: about three points of a wall a
 /// cell at the default spacing, and the last ICP stages' correspondence distances within

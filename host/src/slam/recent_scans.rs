@@ -2,7 +2,8 @@
 
 use std::collections::VecDeque;
 
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::scan_match::Scan;
 
 /// The last `capacity` scans with their poses in the local frame.
 #[derive(Clone, Debug)]

@@ -3,8 +3,9 @@
 //! and which trajectory nodes it spans.
 
 use super::point_map::{PointMap, PointMapOptions};
+use crate::geometry::Pose2;
 use crate::grid::{Submap, SubmapOptions};
-use crate::scan_match::{Pose2, Scan};
+use crate::scan_match::Scan;
 
 /// How well a scan placed in a submap agrees with it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

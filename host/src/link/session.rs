@@ -1,4 +1,4 @@
-//! One board link as the daemon sees it: bytes in, sensor events out, with the clock mapping
+//! One board link as the host sees it: bytes in, sensor events out, with the clock mapping
 //! and the counters. The live reader and the replay of a recording drive the same session,
 //! so a replay decodes, times and counts exactly what the live run did.
 
@@ -8,8 +8,8 @@ use protocol::{
     Decoder, Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, Received, StatusMsg,
 };
 
-use super::state::LinkCounters;
-use crate::link::{LaserScan, LinkReader, TimeSync};
+use super::LinkCounters;
+use super::{LaserScan, LinkReader, TimeSync};
 
 /// A sensor reading for the SLAM pipelines, in SI units and host time.
 #[derive(Debug, Clone)]
@@ -117,7 +117,10 @@ impl LinkSession {
                 Message::GpsFix(fix) => {
                     self.counters.gps_fixes += 1;
                     self.counters.gps_fix_quality = fix.quality.gga_digit();
-                    self.counters.gps_satellites = fix.num_sats.unwrap_or(0);
+                    // RMC and GLL fixes carry no satellite count: the last GGA's stands.
+                    if let Some(satellites) = fix.num_sats {
+                        self.counters.gps_satellites = satellites;
+                    }
                     decoded.events.push(SensorEvent::Fix {
                         host_time_s: host_time(fix.stamp_us),
                         board_time_s: fix.stamp_us as f64 * 1e-6,
@@ -189,7 +192,7 @@ impl LinkSession {
     }
 
     /// The link reader's full accounting.
-    pub fn link_stats(&self) -> crate::link::LinkStats {
+    pub fn link_stats(&self) -> super::LinkStats {
         self.reader.stats()
     }
 }

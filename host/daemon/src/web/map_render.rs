@@ -5,7 +5,7 @@
 //! side spans `max_side_px` pixels: a white background, the trajectory as a blue line and each
 //! landmark as a red square. Points that are not finite are left out.
 
-use crate::scan_match::BresenhamLine;
+use host::scan_match::BresenhamLine;
 
 /// Colour of the background.
 pub const BACKGROUND_RGB: [u8; 3] = [255, 255, 255];

@@ -12,7 +12,7 @@
 //! | `GET /api/state` | pose, counters, trajectory, landmarks, grid placement, goal, image size, `pixel_from_map` |
 //! | `GET /api/map.png` | the occupancy grid's PNG, else the landmarks and trajectory drawn by [`render_map_png`]; 404 before any map |
 //! | `GET /api/image.png` | the geo-referenced image; 404 without one |
-//! | `POST /api/goal` | `{"pixel_x", "pixel_y"}` or `{"lat_deg", "lon_deg"}` → [`GoalInMap`](crate::daemon::GoalInMap), also stored as the state's goal; 400 for a body that is no goal, 422 for a goal the resolver refuses |
+//! | `POST /api/goal` | `{"pixel_x", "pixel_y"}` or `{"lat_deg", "lon_deg"}` → [`GoalInMap`](crate::GoalInMap), also stored as the state's goal; 400 for a body that is no goal, 422 for a goal the resolver refuses |
 //!
 //! Every API error is a JSON object `{"error": "..."}`; unknown `/api/` paths answer 404 and
 //! wrong methods 405 that way.

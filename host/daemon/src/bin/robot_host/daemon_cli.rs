@@ -7,11 +7,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use host::daemon::config::{DaemonConfig, SlamMethod};
-use host::daemon::outputs::write_outputs;
-use host::daemon::replay::replay;
-use host::daemon::runner::{Daemon, SerialPortOpener};
 use host::geoimage::GeoImage;
+use robot_host::config::{DaemonConfig, SlamMethod};
+use robot_host::outputs::write_outputs;
+use robot_host::replay::replay;
+use robot_host::runner::{Daemon, SerialPortOpener};
 
 /// Where the configuration comes from and what overrides it.
 #[derive(Debug, clap::Args)]

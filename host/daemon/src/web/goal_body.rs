@@ -6,7 +6,7 @@
 
 use serde_json::Value;
 
-use crate::daemon::GoalRequest;
+use crate::GoalRequest;
 
 /// Why a goal body could not be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -6,8 +6,8 @@ use std::sync::{Arc, PoisonError};
 use serde_json::{Value, json};
 
 use super::{WebContext, WebError, WebServer};
-use crate::daemon::state::{GridView, ImageView, LandmarkView};
-use crate::daemon::{
+use crate::state::{GridView, ImageView, LandmarkView};
+use crate::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };
 

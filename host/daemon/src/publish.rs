@@ -1,11 +1,12 @@
 //! Turning the pipelines' estimates into the live state: the map-frame pose, trajectory and
 //! landmarks, and, once the map is geo-referenced, their latitude, longitude and image pixels.
 
-use super::ekf_pipeline::EkfPipeline;
-use super::grid_pipeline::GridPipeline;
-use super::state::{LandmarkView, LiveState, PoseView};
-use crate::geoimage::GeoImage;
-use crate::georef::LocalFrame;
+use crate::state::{GridView, LandmarkView, LiveState, PoseView};
+use host::ekf_slam::EkfPipeline;
+use host::geoimage::GeoImage;
+use host::georef::LocalFrame;
+use host::grid::{MapExport, MapExportOptions};
+use host::slam::GridPipeline;
 
 /// At most this many trajectory points are shown; longer trajectories are thinned evenly.
 const MAX_SHOWN_TRAJECTORY_POINTS: usize = 2_000;
@@ -57,7 +58,7 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
 /// Writes the grid pipeline's estimate into `state`: the grid always, the pose and trajectory
 /// when `owns_pose` (no EKF running).
 pub fn publish_grid(state: &mut LiveState, grid: &GridPipeline, owns_pose: bool) {
-    state.grid = Some(grid.grid_view());
+    state.grid = Some(grid_view(grid));
     if owns_pose {
         publish_grid_pose(state, grid);
     }
@@ -139,5 +140,19 @@ mod tests {
         assert_eq!(out.first(), Some(&0));
         assert_eq!(out.last(), Some(&10_000));
         assert_eq!(thinned(&items[..50], 100).len(), 50);
+    }
+}
+
+/// The grid pipeline's global grid as the live view shows it.
+pub fn grid_view(grid: &GridPipeline) -> GridView {
+    let export = MapExport::from_grid(&grid.global_grid(), &MapExportOptions::default());
+    let mut png = Vec::new();
+    // Writing into memory fails only on an empty grid, which shows as no grid.
+    let _ = export.write_png(&mut png);
+    GridView {
+        png,
+        resolution_m: export.resolution_m(),
+        origin_m: export.lower_corner_in_grid(),
+        size_cells: [export.width_px() as u32, export.height_px() as u32],
     }
 }

@@ -1,61 +1,92 @@
-//! The indoor pipeline: raster scan matching against occupancy-grid submaps with loop closure
-//! (method 2), one scan at a time, and the global occupancy grid redrawn for the live view.
+//! Method 2 as one type: time-stamped scans in, tracking, loop closure and the final
+//! refinement ([`GraphSlam`]), poses, trajectory and the global occupancy grid out.
+//!
+//! The daemon on the robot, the replay of its recordings, `hil-sim replay-carmen` and the
+//! seeded whole-chain runs all drive this type; they only read inputs and write outputs, so
+//! what the evaluations measure is what the robot runs.
 
-use super::config::SlamConfig;
-use super::link_session::SensorEvent;
-use super::state::GridView;
-use crate::grid::{MapExport, MapExportOptions, ProbabilityGrid, RangeInserterOptions};
-use crate::scan_match::{Pose2, Scan};
+use crate::geometry::Pose2;
+use crate::grid::{ProbabilityGrid, RangeInserterOptions};
+use crate::link::SensorEvent;
+use crate::scan_match::{Scan, ScanMatchError};
 use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats};
 
-/// Occupancy-grid SLAM over the link's scans. See the [module documentation](self).
+/// How the pipeline runs.
+#[derive(Debug, Clone)]
+pub struct GridPipelineOptions {
+    /// The SLAM; its `max_range_m` is also the range up to which the link's scans are used.
+    pub slam: SlamOptions,
+    /// Cell size of the global occupancy grid, metres.
+    pub map_resolution_m: f64,
+}
+
+impl Default for GridPipelineOptions {
+    fn default() -> Self {
+        GridPipelineOptions {
+            slam: SlamOptions::default(),
+            map_resolution_m: 0.05,
+        }
+    }
+}
+
+/// Occupancy-grid SLAM over time-stamped scans. See the [module documentation](self).
 #[derive(Debug)]
 pub struct GridPipeline {
     /// The SLAM while the run goes on.
     slam: Option<GraphSlam>,
     /// What it made of the whole run, once [`GridPipeline::finish`] ran.
     result: Option<SlamResult>,
-    options: SlamOptions,
-    resolution_m: f64,
-    /// The beams the SLAM trusted, per scan, for the map.
+    options: GridPipelineOptions,
+    /// The beams the SLAM trusted, per scan, for the final refinement and the map.
     scans: Vec<Scan>,
-    host_times_s: Vec<f64>,
+    times_s: Vec<f64>,
     last_pose: Pose2,
 }
 
 impl GridPipeline {
-    /// A pipeline configured by `config`.
-    pub fn new(config: &SlamConfig) -> GridPipeline {
-        let options = SlamOptions {
-            max_range_m: config.grid_max_range_m,
-            ..SlamOptions::default()
-        };
-        GridPipeline {
-            slam: GraphSlam::new(options.clone()).ok(),
+    /// A pipeline with `options`.
+    ///
+    /// # Errors
+    /// The scan matcher's options are invalid.
+    pub fn new(options: GridPipelineOptions) -> Result<GridPipeline, ScanMatchError> {
+        Ok(GridPipeline {
+            slam: Some(GraphSlam::new(options.slam.clone())?),
             result: None,
             options,
-            resolution_m: config.grid_resolution_m,
             scans: Vec::new(),
-            host_times_s: Vec::new(),
+            times_s: Vec::new(),
             last_pose: Pose2::IDENTITY,
+        })
+    }
+
+    /// The options the pipeline runs with.
+    pub fn options(&self) -> &GridPipelineOptions {
+        &self.options
+    }
+
+    /// Uses one sensor reading of the board link: its scans (fixes are for geo-referencing,
+    /// downstream of the pipeline).
+    pub fn on_event(&mut self, event: &SensorEvent) {
+        if let SensorEvent::Scan {
+            host_time_s, scan, ..
+        } = event
+        {
+            let scan = scan.to_scan(self.options.slam.max_range_m);
+            self.add_scan(*host_time_s, &scan, None);
         }
     }
 
-    /// Uses one sensor reading (fixes are not used indoors).
-    pub fn on_event(&mut self, event: &SensorEvent) {
-        let SensorEvent::Scan {
-            host_time_s, scan, ..
-        } = event
-        else {
-            return;
-        };
+    /// Adds a scan (end points in the robot frame) taken at `time_s`, with the odometry pose
+    /// at the scan when the source has one; returns the scan's pose in the map. Scans after
+    /// [`GridPipeline::finish`] are not used.
+    pub fn add_scan(&mut self, time_s: f64, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
         let Some(slam) = self.slam.as_mut() else {
-            return;
+            return self.last_pose;
         };
-        let scan = scan.to_scan(self.options.max_range_m);
-        self.last_pose = slam.add_scan(&scan, None);
-        self.scans.push(self.options.trusted_beams(&scan));
-        self.host_times_s.push(*host_time_s);
+        self.last_pose = slam.add_scan(scan, odometry);
+        self.scans.push(self.options.slam.trusted_beams(scan));
+        self.times_s.push(time_s);
+        self.last_pose
     }
 
     /// The robot's pose in the map frame after the last scan.
@@ -76,8 +107,8 @@ impl GridPipeline {
     }
 
     /// Every scan's pose as the graph holds it now (after [`GridPipeline::finish`], as it
-    /// holds them at the end).
-    fn poses_in_map(&self) -> Vec<Pose2> {
+    /// holds them at the end), in the order the scans were added.
+    pub fn poses_in_map(&self) -> Vec<Pose2> {
         match (&self.result, &self.slam) {
             (Some(result), _) => result.poses_in_map.clone(),
             (None, Some(slam)) => slam.poses_in_map(),
@@ -85,10 +116,15 @@ impl GridPipeline {
         }
     }
 
-    /// Every scan's host time and pose as the graph holds it now.
+    /// Every scan's time and pose as the graph holds it now.
     pub fn trajectory(&self) -> Vec<(f64, Pose2)> {
         let poses = self.poses_in_map();
-        self.host_times_s.iter().copied().zip(poses).collect()
+        self.times_s.iter().copied().zip(poses).collect()
+    }
+
+    /// The scans used, with only the beams the SLAM trusts, in the order they were added.
+    pub fn scans(&self) -> &[Scan] {
+        &self.scans
     }
 
     /// Totals so far.
@@ -101,29 +137,13 @@ impl GridPipeline {
     }
 
     /// The global occupancy grid from every scan at its current pose.
-    pub fn render(&self) -> MapExport {
-        let poses = self.poses_in_map();
-        let grid = ProbabilityGrid::from_scans(
-            poses.into_iter().zip(self.scans.iter()),
-            self.resolution_m,
+    pub fn global_grid(&self) -> ProbabilityGrid {
+        ProbabilityGrid::from_scans(
+            self.poses_in_map().into_iter().zip(self.scans.iter()),
+            self.options.map_resolution_m,
             Default::default(),
             RangeInserterOptions::default(),
-        );
-        MapExport::from_grid(&grid, &MapExportOptions::default())
-    }
-
-    /// The global grid as the live view shows it.
-    pub fn grid_view(&self) -> GridView {
-        let export = self.render();
-        let mut png = Vec::new();
-        // Writing into memory fails only on an empty grid, which shows as no grid.
-        let _ = export.write_png(&mut png);
-        GridView {
-            png,
-            resolution_m: export.resolution_m(),
-            origin_m: export.lower_corner_in_grid(),
-            size_cells: [export.width_px() as u32, export.height_px() as u32],
-        }
+        )
     }
 }
 
@@ -168,7 +188,8 @@ mod tests {
     #[test]
     fn finishing_refines_the_run_and_ends_it() {
         let events = room_events(110);
-        let mut pipeline = GridPipeline::new(&SlamConfig::default());
+        let mut pipeline =
+            GridPipeline::new(GridPipelineOptions::default()).expect("valid options");
         for event in &events[..100] {
             pipeline.on_event(event);
         }

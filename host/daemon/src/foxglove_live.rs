@@ -18,10 +18,10 @@ use foxglove::messages::{LocationFix, PoseInFrame};
 use foxglove::{Channel, Context, FoxgloveError, RawChannel, Schema, WebSocketServer};
 use protocol::GpsFixMsg;
 
-use super::state::{LinkCounters, LiveState, PoseView};
-use crate::recording::foxglove_messages::{gps_location, pose_in_frame, pose_location};
-use crate::recording::json_schema::json_schema_of;
-use crate::recording::topics::{
+use crate::state::{LinkCounters, LiveState, PoseView};
+use host::recording::foxglove_messages::{gps_location, pose_in_frame, pose_location};
+use host::recording::json_schema::json_schema_of;
+use host::recording::topics::{
     COUNTERS_TOPIC, GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC,
 };
 

@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 
-use super::state::{GoalError, GoalInMap, GoalRequest, GoalResolver, SharedState};
-use crate::geoimage::GeoImage;
-use crate::georef::LocalFrame;
+use crate::state::{GoalError, GoalInMap, GoalRequest, GoalResolver, SharedState};
+use host::geoimage::GeoImage;
+use host::georef::LocalFrame;
 
 /// Resolves goals against the live map and the geo-referenced image.
 pub struct MapGoalResolver {

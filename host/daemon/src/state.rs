@@ -3,55 +3,12 @@
 
 use std::sync::{Arc, RwLock};
 
+pub use host::PoseView;
+pub use host::link::LinkCounters;
 use serde::{Deserialize, Serialize};
 
 /// The live state behind a lock, shared between the daemon's threads.
 pub type SharedState = Arc<RwLock<LiveState>>;
-
-/// The robot's current pose estimate, in the map frame and, once the map is geo-referenced,
-/// in WGS84.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct PoseView {
-    /// Position in the map frame, metres.
-    pub x_m: f64,
-    /// Position in the map frame, metres.
-    pub y_m: f64,
-    /// Heading in the map frame, radians.
-    pub theta_rad: f64,
-    /// Latitude, degrees (WGS84), when the map is geo-referenced.
-    pub lat_deg: Option<f64>,
-    /// Longitude, degrees (WGS84), when the map is geo-referenced.
-    pub lon_deg: Option<f64>,
-    /// Covariance of (x, y) in the map frame, m²: `[xx, xy, yy]`.
-    pub position_cov_m2: [f64; 3],
-    /// Host time of the estimate, seconds.
-    pub time_s: f64,
-}
-
-/// The link and sensor counters shown live.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct LinkCounters {
-    /// Frames decoded.
-    pub frames: u64,
-    /// Frames lost: gaps in the board's sequence numbers.
-    pub frames_lost: u64,
-    /// Frames whose CRC failed.
-    pub crc_errors: u64,
-    /// Scan telegrams received (one frame each).
-    pub telegrams: u64,
-    /// Telegrams the board reported as failing their CRC on the laser line.
-    pub telegram_crc_errors: u64,
-    /// GPS fixes received.
-    pub gps_fixes: u64,
-    /// The last fix's quality: 0 none, 1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float.
-    pub gps_fix_quality: u8,
-    /// Satellites used in the last fix.
-    pub gps_satellites: u8,
-    /// Times the serial port was reopened.
-    pub reconnects: u64,
-    /// Whether the board clock is synchronised to host time.
-    pub clock_synchronised: bool,
-}
 
 /// A landmark of the built map, for display.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -7,6 +7,8 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
+use host::ekf_slam::EkfPipelineOptions;
+use host::slam::{GridPipelineOptions, SlamOptions};
 use serde::{Deserialize, Serialize};
 
 /// Which SLAM pipelines run.
@@ -114,6 +116,31 @@ impl Default for SlamConfig {
             grid_max_range_m: 30.0,
             grid_resolution_m: 0.05,
             grid_redraw_every_scans: 50,
+        }
+    }
+}
+
+impl SlamConfig {
+    /// The grid pipeline's options (method 2).
+    pub fn grid_pipeline_options(&self) -> GridPipelineOptions {
+        GridPipelineOptions {
+            slam: SlamOptions {
+                max_range_m: self.grid_max_range_m,
+                ..SlamOptions::default()
+            },
+            map_resolution_m: self.grid_resolution_m,
+        }
+    }
+
+    /// The EKF pipeline's options (method 1), with the local metric frame at
+    /// `datum_lat_lon_deg` when given, else at the first fix.
+    pub fn ekf_pipeline_options(&self, datum_lat_lon_deg: Option<[f64; 2]>) -> EkfPipelineOptions {
+        EkfPipelineOptions {
+            laser_in_robot: self.laser_in_robot,
+            antenna_in_robot: self.antenna_in_robot,
+            max_range_m: self.ekf_max_range_m,
+            landmarks_per_local_map: self.ekf_landmarks_per_local_map,
+            datum_lat_lon_deg,
         }
     }
 }
@@ -304,7 +331,7 @@ impl DaemonConfig {
 mod tests {
     use super::*;
 
-    const DEFAULT_FILE: &str = include_str!("../../config/robot-host.toml");
+    const DEFAULT_FILE: &str = include_str!("../config/robot-host.toml");
 
     #[test]
     fn the_documented_file_is_the_default() {

@@ -1,5 +1,5 @@
-//! The outdoor pipeline: trees found in each scan drive the EKF with local maps (method 1),
-//! and GPS fixes put the map into a local metric frame at the datum and then update it.
+//! Method 1 on the board link's events: trees found in each scan drive the EKF with local
+//! maps, and GPS fixes put the map into a local metric frame at the datum and then update it.
 //!
 //! The board carries no odometry, so the robot moves by the constant-velocity model between
 //! scans; time differences come from the board's stamps, so a replay gives the same
@@ -7,14 +7,14 @@
 
 use nalgebra::{Matrix2, Matrix3};
 
-use super::config::SlamConfig;
-use super::link_session::SensorEvent;
-use crate::ekf_slam::{
+use super::frames::compose_pose;
+use super::{
     ConstantVelocityModel, GpsAnchor, GpsAnchorOptions, GpsOutcome, LandmarkObservation,
-    RangeBearingModel, SubmapSlam, SubmapSlamOptions, frames::compose_pose,
+    RangeBearingModel, SubmapSlam, SubmapSlamOptions,
 };
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
 use crate::landmarks::{FeatureKind, FrontEndOptions, extract_features};
+use crate::link::SensorEvent;
 
 /// A time step longer than this (a gap in the scans) is not predicted across in one go: the
 /// constant-velocity guess would run away, s.
@@ -27,6 +27,33 @@ pub struct StampedPose {
     pub time_s: f64,
     /// Robot pose in the map frame, `[x_m, y_m, theta_rad]`.
     pub pose_in_map: [f64; 3],
+}
+
+/// How the pipeline runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EkfPipelineOptions {
+    /// The laser's pose on the robot, `[x_m, y_m, theta_rad]` (x forward, y left).
+    pub laser_in_robot: [f64; 3],
+    /// The GPS antenna's position on the robot, `[x_m, y_m]`.
+    pub antenna_in_robot: [f64; 2],
+    /// Laser returns are used up to this range, metres.
+    pub max_range_m: f64,
+    /// A local map closes when it holds this many landmarks.
+    pub landmarks_per_local_map: usize,
+    /// `[lat_deg, lon_deg]` of the local metric frame's origin; the first fix when `None`.
+    pub datum_lat_lon_deg: Option<[f64; 2]>,
+}
+
+impl Default for EkfPipelineOptions {
+    fn default() -> Self {
+        EkfPipelineOptions {
+            laser_in_robot: [0.0; 3],
+            antenna_in_robot: [0.0; 2],
+            max_range_m: 40.0,
+            landmarks_per_local_map: 30,
+            datum_lat_lon_deg: None,
+        }
+    }
 }
 
 /// Totals of the pipeline.
@@ -64,26 +91,32 @@ pub struct EkfPipeline {
 }
 
 impl EkfPipeline {
-    /// A pipeline configured by `config`; the local metric frame is at `datum_lat_lon_deg`
-    /// when given, else at the first fix.
-    pub fn new(config: &SlamConfig, datum_lat_lon_deg: Option<[f64; 2]>) -> EkfPipeline {
+    /// A pipeline with `options`.
+    pub fn new(options: &EkfPipelineOptions) -> EkfPipeline {
         let sensor = RangeBearingModel {
-            sensor_in_robot: config.laser_in_robot,
+            sensor_in_robot: options.laser_in_robot,
             sigma_range_m: 0.1,
             sigma_bearing_rad: 1f64.to_radians(),
         };
-        let options = SubmapSlamOptions {
-            max_landmarks_per_local_map: config.ekf_landmarks_per_local_map,
+        let slam_options = SubmapSlamOptions {
+            max_landmarks_per_local_map: options.landmarks_per_local_map,
             ..SubmapSlamOptions::default()
         };
         EkfPipeline {
-            slam: SubmapSlam::new(ConstantVelocityModel::default(), sensor, options, [0.0; 3]),
+            slam: SubmapSlam::new(
+                ConstantVelocityModel::default(),
+                sensor,
+                slam_options,
+                [0.0; 3],
+            ),
             front_end: FrontEndOptions::default(),
             anchor: GpsAnchor::new(GpsAnchorOptions::default()),
-            frame: datum_lat_lon_deg.and_then(|[lat, lon]| LocalFrame::new(lat, lon, 0.0).ok()),
+            frame: options
+                .datum_lat_lon_deg
+                .and_then(|[lat, lon]| LocalFrame::new(lat, lon, 0.0).ok()),
             gps_options: GpsMeasurementOptions::default(),
-            antenna_in_robot: config.antenna_in_robot,
-            max_range_m: config.ekf_max_range_m,
+            antenna_in_robot: options.antenna_in_robot,
+            max_range_m: options.max_range_m,
             last_board_time_s: None,
             trajectory: Vec::new(),
             stats: EkfPipelineStats::default(),

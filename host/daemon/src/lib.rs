@@ -1,16 +1,15 @@
 //! The robot-host daemon: the board link read on its own thread, the SLAM pipelines on theirs,
 //! the live state the web view and the goal API read, the live view in Foxglove
-//! ([`foxglove_live`]) and the recording ([`crate::recording`]).
+//! ([`foxglove_live`]) and the recording ([`host::recording`]).
 //!
-//! The algorithms live in the rest of the crate and know nothing of threads, HTTP or files;
-//! this module wires them together.
+//! The algorithms live in the `host` library, which knows nothing of threads, HTTP or files;
+//! this crate reads the inputs, drives the library's pipelines
+//! ([`host::slam::GridPipeline`], [`host::ekf_slam::EkfPipeline`]) and serves and writes the
+//! outputs.
 
 pub mod config;
-pub mod ekf_pipeline;
 pub mod foxglove_live;
 pub mod goal;
-pub mod grid_pipeline;
-pub mod link_session;
 pub mod outputs;
 pub mod publish;
 pub mod replay;

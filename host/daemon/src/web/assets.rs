@@ -17,19 +17,19 @@ pub(crate) struct Asset {
 /// The page: `GET /`.
 pub(crate) const INDEX_HTML: Asset = Asset {
     content_type: "text/html; charset=utf-8",
-    body: include_str!("../../../assets/web/index.html"),
+    body: include_str!("../../assets/web/index.html"),
 };
 
 /// The page's script: `GET /app.js`.
 pub(crate) const APP_JS: Asset = Asset {
     content_type: "text/javascript; charset=utf-8",
-    body: include_str!("../../../assets/web/app.js"),
+    body: include_str!("../../assets/web/app.js"),
 };
 
 /// The page's style sheet: `GET /style.css`.
 pub(crate) const STYLE_CSS: Asset = Asset {
     content_type: "text/css; charset=utf-8",
-    body: include_str!("../../../assets/web/style.css"),
+    body: include_str!("../../assets/web/style.css"),
 };
 
 impl IntoResponse for Asset {

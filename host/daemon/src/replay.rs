@@ -8,15 +8,16 @@ use std::path::Path;
 use indicatif::{ProgressBar, ProgressStyle};
 use protocol::MeasuringMode;
 
-use super::config::DaemonConfig;
-use super::ekf_pipeline::EkfPipeline;
-use super::grid_pipeline::GridPipeline;
-use super::link_session::LinkSession;
-use super::publish::{publish_ekf, publish_grid};
-use super::runner::RunOutcome;
-use super::state::LiveState;
-use crate::geoimage::GeoImage;
-use crate::recording::{LinkDirection, RecordingError, read_recording};
+use crate::config::DaemonConfig;
+use crate::publish::{publish_ekf, publish_grid};
+use crate::runner::DaemonError;
+use crate::runner::RunOutcome;
+use crate::state::LiveState;
+use host::ekf_slam::EkfPipeline;
+use host::geoimage::GeoImage;
+use host::link::LinkSession;
+use host::recording::{LinkDirection, read_recording};
+use host::slam::GridPipeline;
 
 /// Replays `path` with the pipelines `config` selects; `progress` shows a progress bar on
 /// stderr.
@@ -28,19 +29,22 @@ pub fn replay(
     config: &DaemonConfig,
     image: Option<&GeoImage>,
     progress: bool,
-) -> Result<(RunOutcome, bool), RecordingError> {
+) -> Result<(RunOutcome, bool), DaemonError> {
     let recording = read_recording(path)?;
     let mut session = LinkSession::new(MeasuringMode(config.link.measuring_mode));
-    let mut ekf = config
-        .slam
-        .method
-        .runs_ekf()
-        .then(|| EkfPipeline::new(&config.slam, config.georef.datum_lat_lon_deg));
+    let mut ekf = config.slam.method.runs_ekf().then(|| {
+        EkfPipeline::new(
+            &config
+                .slam
+                .ekf_pipeline_options(config.georef.datum_lat_lon_deg),
+        )
+    });
     let mut grid = config
         .slam
         .method
         .runs_grid()
-        .then(|| GridPipeline::new(&config.slam));
+        .then(|| GridPipeline::new(config.slam.grid_pipeline_options()))
+        .transpose()?;
     let bar = if progress {
         let bar = ProgressBar::new(recording.link.len() as u64);
         bar.set_style(

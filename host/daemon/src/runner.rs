@@ -21,15 +21,16 @@ use std::time::{Duration, Instant};
 
 use protocol::{MeasuringMode, Received};
 
-use super::config::DaemonConfig;
-use super::ekf_pipeline::EkfPipeline;
-use super::foxglove_live::start_live_server;
-use super::grid_pipeline::GridPipeline;
-use super::link_session::{LinkSession, SensorEvent};
-use super::publish::{publish_ekf, publish_grid, publish_grid_pose};
-use super::state::{LiveState, SharedState};
-use crate::geoimage::GeoImage;
-use crate::recording::{Recorder, RecorderOptions, RecordingError, RecordingSummary};
+use crate::config::DaemonConfig;
+use crate::foxglove_live::start_live_server;
+use crate::publish::{grid_view, publish_ekf, publish_grid, publish_grid_pose};
+use crate::state::{LiveState, SharedState};
+use host::ekf_slam::EkfPipeline;
+use host::geoimage::GeoImage;
+use host::link::{LinkSession, SensorEvent};
+use host::recording::{Recorder, RecorderOptions, RecordingError, RecordingSummary};
+use host::scan_match::ScanMatchError;
+use host::slam::GridPipeline;
 
 /// How long a read on the port waits before the reader checks for shutdown and pings.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
@@ -92,6 +93,9 @@ pub enum DaemonError {
     /// The web view or the Foxglove server cannot bind.
     #[error("{0}")]
     Serve(String),
+    /// The SLAM configuration cannot be used.
+    #[error("invalid SLAM configuration: {0}")]
+    Slam(#[from] ScanMatchError),
     /// A thread of the daemon panicked.
     #[error("the {0} thread stopped unexpectedly")]
     Thread(&'static str),
@@ -127,7 +131,7 @@ pub struct Daemon {
     grid: Option<JoinHandle<GridPipeline>>,
     recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
     live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
-    web: Option<super::web::WebServer>,
+    web: Option<crate::web::WebServer>,
 }
 
 impl Daemon {
@@ -144,7 +148,7 @@ impl Daemon {
         let shutdown = Arc::new(AtomicBool::new(false));
         let image = load_image(config)?;
         if let (Some(image), Ok(mut s)) = (&image, state.write()) {
-            s.image = Some(super::state::ImageView {
+            s.image = Some(crate::state::ImageView {
                 width: image.width(),
                 height: image.height(),
                 crs: image
@@ -180,7 +184,11 @@ impl Daemon {
         let ekf = if config.slam.method.runs_ekf() {
             let (tx, rx) = mpsc::channel();
             event_txs.push(tx);
-            let pipeline = EkfPipeline::new(&config.slam, config.georef.datum_lat_lon_deg);
+            let pipeline = EkfPipeline::new(
+                &config
+                    .slam
+                    .ekf_pipeline_options(config.georef.datum_lat_lon_deg),
+            );
             let state = state.clone();
             let image = image.clone();
             Some(spawn("ekf", move || {
@@ -192,7 +200,7 @@ impl Daemon {
         let grid = if config.slam.method.runs_grid() {
             let (tx, rx) = mpsc::channel();
             event_txs.push(tx);
-            let pipeline = GridPipeline::new(&config.slam);
+            let pipeline = GridPipeline::new(config.slam.grid_pipeline_options())?;
             let state = state.clone();
             let owns_pose = !config.slam.method.runs_ekf();
             let every = config.slam.grid_redraw_every_scans;
@@ -241,7 +249,7 @@ impl Daemon {
         };
 
         let web = if config.web.enabled {
-            let resolver = super::goal::MapGoalResolver::new(
+            let resolver = crate::goal::MapGoalResolver::new(
                 state.clone(),
                 image.clone(),
                 config.georef.goal_margin_m,
@@ -255,9 +263,9 @@ impl Daemon {
                 None => None,
             };
             Some(
-                super::web::WebServer::start(
+                crate::web::WebServer::start(
                     config.web.listen,
-                    super::web::WebContext {
+                    crate::web::WebContext {
                         state: state.clone(),
                         goal: Arc::new(resolver),
                         image_png,
@@ -290,7 +298,7 @@ impl Daemon {
 
     /// Where the web view listens, when it runs.
     pub fn web_addr(&self) -> Option<std::net::SocketAddr> {
-        self.web.as_ref().map(super::web::WebServer::local_addr)
+        self.web.as_ref().map(crate::web::WebServer::local_addr)
     }
 
     /// Where the Foxglove server listens, when it runs.
@@ -367,7 +375,7 @@ fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonErro
 /// unplug, keeping the session (counters, clock, partial state) across.
 fn read_port(
     mut opener: Box<dyn PortOpener>,
-    link: &super::config::LinkConfig,
+    link: &crate::config::LinkConfig,
     state: &SharedState,
     shutdown: &AtomicBool,
     event_txs: &[Sender<SensorEvent>],
@@ -493,7 +501,7 @@ fn run_grid(
         }
         scans += 1;
         if scans.is_multiple_of(redraw_every_scans) {
-            let view = pipeline.grid_view();
+            let view = grid_view(&pipeline);
             if let Ok(mut s) = state.write() {
                 s.grid = Some(view);
             }

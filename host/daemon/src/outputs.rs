@@ -9,10 +9,11 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
-use super::runner::RunOutcome;
-use super::web::render_map_png;
-use crate::geoimage::GeoImage;
-use crate::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
+use crate::runner::RunOutcome;
+use crate::web::render_map_png;
+use host::geoimage::GeoImage;
+use host::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
+use host::grid::{MapExport, MapExportOptions};
 
 /// The longer side of the landmark map drawing, pixels.
 const MAP_DRAWING_SIDE_PX: u32 = 2000;
@@ -61,7 +62,7 @@ pub fn write_outputs(
 
     let path = dir.join("map.png");
     if let Some(grid) = &outcome.grid {
-        let export = grid.render();
+        let export = MapExport::from_grid(&grid.global_grid(), &MapExportOptions::default());
         export
             .save_png(&path)
             .map_err(|e| output_error(&path)(e.to_string()))?;

@@ -15,7 +15,7 @@ use std::time::Duration;
 use tokio::sync::watch;
 
 use super::routes::router;
-use crate::daemon::{GoalResolver, SharedState};
+use crate::{GoalResolver, SharedState};
 
 /// How long [`WebServer::stop`] waits for open connections before closing them.
 pub const DRAIN_LIMIT: Duration = Duration::from_secs(2);

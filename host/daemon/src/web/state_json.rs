@@ -7,8 +7,8 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 
 use serde::Serialize;
 
-use crate::daemon::state::{GridView, ImageView, LandmarkView};
-use crate::daemon::{GoalInMap, LinkCounters, LiveState, PoseView};
+use crate::state::{GridView, ImageView, LandmarkView};
+use crate::{GoalInMap, LinkCounters, LiveState, PoseView};
 
 /// A view of [`LiveState`] borrowed for serialisation.
 #[derive(Debug, Serialize)]

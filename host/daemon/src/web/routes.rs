@@ -17,7 +17,7 @@ use super::goal_body::parse_goal_body;
 use super::map_render::{MapRenderError, render_map_png};
 use super::server::WebContext;
 use super::state_json::StateJson;
-use crate::daemon::LiveState;
+use crate::LiveState;
 
 /// Longer side of the landmark map drawn for `/api/map.png`, pixels.
 const MAP_RENDER_SIDE_PX: u32 = 800;
