@@ -174,6 +174,32 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
         "the replay gives the live run's trajectory"
     );
     assert_eq!(outcome.state.counters.frames, counters.frames);
+
+    // The grid method is geo-referenced too: its trajectory aligned to the same fixes puts
+    // the map in the local frame at the datum, where the goal API resolves goals.
+    config.slam.method = SlamMethod::Grid;
+    let (outcome, _) =
+        replay(&out.join("run.mcap"), &config, None, false).expect("the recording replays");
+    let state = &outcome.state;
+    let enu_from_map = state.enu_from_map.expect("the grid map is aligned to GPS");
+    assert_eq!(
+        state.datum_lat_lon_deg,
+        Some([datum.lat_deg, datum.lon_deg])
+    );
+    let alignment = outcome
+        .grid_georef
+        .as_ref()
+        .and_then(|g| g.alignment())
+        .expect("an alignment");
+    assert!(alignment.pairs_used > 100, "{alignment:?}");
+    let pose = &state.pose;
+    let [east_m, north_m] = enu_from_map.transform_point([pose.x_m, pose.y_m]);
+    let error_m = (east_m - end.x_m).hypot(north_m - end.y_m);
+    assert!(
+        error_m < 3.0,
+        "the grid method's final position {error_m:.2} m from the truth ({alignment:?})"
+    );
+    assert!(pose.lat_deg.is_some() && !state.trajectory_wgs84.is_empty());
 }
 
 #[test]

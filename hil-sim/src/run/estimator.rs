@@ -1,108 +1,90 @@
-//! The host's pose estimate during a run: laser odometry by scan matching against keyframes.
+//! The host's pose estimate during a run: the host library's pipelines, with the daemon's
+//! default configuration, fed the link's sensor events as the daemon feeds them.
 //!
-//! Each scan is matched with the fast raster matcher ([`host::scan_match::FastMatcher`])
-//! against the last keyframe, starting from a constant-velocity guess; a scan becomes the
-//! next keyframe once the robot has moved [`KEYFRAME_DISTANCE_M`] or turned
-//! [`KEYFRAME_TURN_RAD`] from the last one. Poses are in the `map` frame, whose origin is the
-//! robot's pose at its first scan. Without loop closure this drifts; the full SLAM methods
-//! replace it.
+//! Indoors (and for CARMEN logs and raw captures) method 2 runs
+//! ([`host::slam::GridPipeline`]); outdoors (and for Victoria Park) method 1
+//! ([`host::ekf_slam::EkfPipeline`]) with GPS, whose map becomes the local frame at the
+//! world's datum once it is aligned to the fixes.
 
+use host::ekf_slam::EkfPipeline;
 use host::geometry::Pose2;
-use host::link::LaserScan;
-use host::scan_match::{FastMatcher, PreparedReference, RasterOptions, Scan, SearchTable};
-use protocol::{GpsFixMsg, MeasuringMode, ScanMsg};
+use host::link::SensorEvent;
+use host::scan_match::ScanMatchError;
+use host::slam::GridPipeline;
+use robot_host::config::SlamConfig;
 
-/// A new keyframe after this much travel, m.
-pub const KEYFRAME_DISTANCE_M: f64 = 0.3;
-/// A new keyframe after this much turning, rad.
-pub const KEYFRAME_TURN_RAD: f64 = 0.15;
-
-/// The largest plausible motion between two scans, m (2.5 m/s at 37.5 scans per second).
-const MAX_STEP_M: f64 = 0.07;
-/// The largest plausible turn between two scans, rad.
-const MAX_TURN_RAD: f64 = 0.05;
-
-/// Laser odometry. See the [module documentation](self).
+/// Which of the two methods estimates the pose. See the [module documentation](self).
 #[derive(Debug)]
-pub struct Estimator {
-    matcher: Option<FastMatcher>,
-    /// The last keyframe's pose in `map`, and its scan drawn for the matcher once for every
-    /// scan matched against it.
-    keyframe: Option<(Option<PreparedReference>, Pose2)>,
-    /// The last scan's pose in the keyframe's frame.
-    last_in_keyframe: Pose2,
-    /// The motion between the last two scans.
-    motion: Pose2,
-    pose_in_map: Pose2,
+pub enum Estimator {
+    /// Method 2: scan matching against occupancy-grid submaps with loop closure.
+    Grid(Box<GridPipeline>),
+    /// Method 1: EKF SLAM on trees with local maps, aligned to and updated by GPS.
+    Ekf(Box<EkfPipeline>),
 }
 
 impl Estimator {
-    /// Laser odometry with pixels of `resolution_m`: 5 cm indoors, coarser outdoors where
-    /// the features are farther away.
-    pub fn new(resolution_m: f64) -> Estimator {
-        let raster = RasterOptions {
-            resolution_m,
-            max_gap_m: (10.0 * resolution_m).max(0.5),
-            ..RasterOptions::default()
-        };
-        let table = SearchTable::quantised(6, 6, resolution_m, 12, 0.25_f64.to_radians(), &raster);
-        Estimator {
-            matcher: FastMatcher::new(raster, table).ok(),
-            keyframe: None,
-            last_in_keyframe: Pose2::IDENTITY,
-            motion: Pose2::IDENTITY,
-            pose_in_map: Pose2::IDENTITY,
+    /// Method 2 with the daemon's default configuration.
+    ///
+    /// # Errors
+    /// The configuration's scan-matcher options are invalid.
+    pub fn grid() -> Result<Estimator, ScanMatchError> {
+        let options = SlamConfig::default().grid_pipeline_options();
+        Ok(Estimator::Grid(Box::new(GridPipeline::new(options)?)))
+    }
+
+    /// Method 1 with the daemon's default configuration, its local metric frame at
+    /// `datum_lat_lon_deg`.
+    pub fn ekf(datum_lat_lon_deg: [f64; 2]) -> Estimator {
+        let options = SlamConfig::default().ekf_pipeline_options(Some(datum_lat_lon_deg));
+        Estimator::Ekf(Box::new(EkfPipeline::new(&options)))
+    }
+
+    /// Uses one sensor event.
+    pub fn on_event(&mut self, event: &SensorEvent) {
+        match self {
+            Estimator::Grid(pipeline) => pipeline.on_event(event),
+            Estimator::Ekf(pipeline) => pipeline.on_event(event),
         }
     }
 
-    /// A scan at host time `_t_s`: returns the robot's pose `[x_m, y_m, theta_rad]` in `map`.
-    pub fn on_scan(&mut self, _t_s: f64, msg: &ScanMsg) -> [f64; 3] {
-        let scan = to_scan(msg);
-        let Some((keyframe, keyframe_pose)) = &self.keyframe else {
-            self.keyframe = Some((self.prepare(&scan), Pose2::IDENTITY));
-            return pose_array(self.pose_in_map);
-        };
-        let guess = self.last_in_keyframe * self.motion;
-        let matched = self
-            .matcher
-            .as_ref()
-            .zip(keyframe.as_ref())
-            .and_then(|(m, keyframe)| m.match_prepared(keyframe, &scan, guess).ok())
-            .map_or(guess, |r| r.reference_from_new);
-        let motion = self.last_in_keyframe.inverse() * matched;
-        // A robot moves a few centimetres between scans; a larger step is a bad match, and
-        // extrapolating it would run away.
-        self.motion =
-            if motion.x_m.hypot(motion.y_m) > MAX_STEP_M || motion.theta_rad.abs() > MAX_TURN_RAD {
-                Pose2::IDENTITY
-            } else {
-                motion
-            };
-        self.last_in_keyframe = matched;
-        self.pose_in_map = *keyframe_pose * matched;
-        if matched.x_m.hypot(matched.y_m) > KEYFRAME_DISTANCE_M
-            || matched.theta_rad.abs() > KEYFRAME_TURN_RAD
-        {
-            self.keyframe = Some((self.prepare(&scan), self.pose_in_map));
-            self.last_in_keyframe = Pose2::IDENTITY;
+    /// Ends the run (the grid method's final refinement).
+    pub fn finish(&mut self) {
+        if let Estimator::Grid(pipeline) = self {
+            pipeline.finish();
         }
-        pose_array(self.pose_in_map)
     }
 
-    /// `scan` drawn as the matcher's reference, when there is a matcher.
-    fn prepare(&self, scan: &Scan) -> Option<PreparedReference> {
-        self.matcher.as_ref().map(|m| m.prepare(scan))
+    /// The pose `[x_m, y_m, theta_rad]` of every scan the pipeline placed, as it holds them
+    /// now, in the order the scans came (the EKF skips a scan whose time stamp goes back).
+    pub fn trajectory(&self) -> Vec<[f64; 3]> {
+        match self {
+            Estimator::Grid(pipeline) => pipeline
+                .poses_in_map()
+                .iter()
+                .map(|p: &Pose2| [p.x_m, p.y_m, p.theta_rad])
+                .collect(),
+            Estimator::Ekf(pipeline) => pipeline
+                .trajectory()
+                .iter()
+                .map(|p| p.pose_in_map)
+                .collect(),
+        }
     }
 
-    /// A GPS fix. Laser odometry does not use it.
-    pub fn on_fix(&mut self, _fix: &GpsFixMsg) {}
-}
+    /// How many scans the pipeline has placed so far.
+    pub fn trajectory_len(&self) -> usize {
+        match self {
+            Estimator::Grid(pipeline) => pipeline.scans().len(),
+            Estimator::Ekf(pipeline) => pipeline.trajectory().len(),
+        }
+    }
 
-fn pose_array(pose: Pose2) -> [f64; 3] {
-    [pose.x_m, pose.y_m, pose.theta_rad]
-}
-
-/// The scan's beam end points.
-fn to_scan(msg: &ScanMsg) -> Scan {
-    LaserScan::from_msg(msg, MeasuringMode::DEFAULT).to_scan(80.0)
+    /// Whether the map frame is the local frame at the datum (aligned to GPS) rather than
+    /// the robot's first pose.
+    pub fn is_geo_referenced(&self) -> bool {
+        match self {
+            Estimator::Grid(_) => false,
+            Estimator::Ekf(pipeline) => pipeline.is_geo_referenced(),
+        }
+    }
 }

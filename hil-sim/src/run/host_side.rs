@@ -1,11 +1,14 @@
 //! The robot computer's side of a run: reads the host link as `robot-host` does, keeps the
-//! clock in sync with pings, and tells each scan that arrives apart from the ones the sensor
-//! sent (intact, or not the same: damaged and yet accepted).
+//! clock in sync with pings, feeds every scan and fix to the host library's pipeline
+//! ([`Estimator`]), and tells each scan that arrives apart from the ones the sensor sent
+//! (intact, or not the same: damaged and yet accepted).
 
 use std::collections::VecDeque;
 
-use host::link::{LinkReader, TimeSync};
-use protocol::{Encoder, GpsFixMsg, MAX_WIRE_LEN, Message, ScanMsg, StatusMsg};
+use std::sync::Arc;
+
+use host::link::{LaserScan, LinkReader, SensorEvent, TimeSync};
+use protocol::{Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, ScanMsg, StatusMsg};
 
 use super::estimator::Estimator;
 use crate::world::RobotState;
@@ -24,8 +27,10 @@ pub struct SentScan {
 pub struct ScanRecord {
     /// Host time of the scan, s.
     pub t_s: f64,
-    /// The host's estimate `[x_m, y_m, theta_rad]`.
+    /// The host's estimate `[x_m, y_m, theta_rad]`, once [`HostSide::finish`] ran.
     pub estimate: [f64; 3],
+    /// Scans the pipeline had placed when this one was fed (its pose is the last of them).
+    placed: usize,
     /// The truth.
     pub truth: RobotState,
 }
@@ -63,6 +68,9 @@ pub struct HostSide {
     last_fix_time: Option<protocol::TimeOfDay>,
     /// The latest status report.
     pub status: Option<StatusMsg>,
+    /// Whether the estimates are in the local frame at the datum (aligned to GPS), once
+    /// [`HostSide::finish`] ran; else in the frame of the robot's first pose.
+    pub geo_referenced: bool,
     /// Bytes thrown away while the link was unplugged.
     pub bytes_while_unplugged: u64,
 }
@@ -94,6 +102,7 @@ impl HostSide {
             fixes_with_position: 0,
             last_fix_time: None,
             status: None,
+            geo_referenced: false,
             bytes_while_unplugged: 0,
         }
     }
@@ -115,7 +124,11 @@ impl HostSide {
                         self.fixes_with_position += 1;
                         self.last_fix_time = fix.time;
                     }
-                    self.estimator.on_fix(&fix);
+                    self.estimator.on_event(&SensorEvent::Fix {
+                        host_time_s: self.sync.clock().to_host_s(fix.stamp_us),
+                        board_time_s: fix.stamp_us as f64 * 1e-6,
+                        fix,
+                    });
                     self.fixes.push(GpsFixMsg { stamp_us: 0, ..fix });
                 }
                 Message::Status(status) => self.status = Some(status),
@@ -154,7 +167,31 @@ impl HostSide {
             .unwrap_or_default()
     }
 
+    /// Ends the run: the pipeline finishes, and each scan record takes its pose as the
+    /// pipeline holds it at the end.
+    pub fn finish(&mut self) {
+        self.estimator.finish();
+        self.geo_referenced = self.estimator.is_geo_referenced();
+        let trajectory = self.estimator.trajectory();
+        for record in &mut self.records {
+            record.estimate = record
+                .placed
+                .checked_sub(1)
+                .and_then(|last| trajectory.get(last))
+                .copied()
+                .unwrap_or_default();
+        }
+    }
+
     fn on_scan(&mut self, scan: &ScanMsg) {
+        let t_s = self.sync.clock().to_host_s(scan.stamp_us);
+        // Every scan the link delivers goes to the pipeline, as in the daemon.
+        self.estimator.on_event(&SensorEvent::Scan {
+            host_time_s: t_s,
+            board_time_s: scan.stamp_us as f64 * 1e-6,
+            scan_counter: scan.scan_counter,
+            scan: Arc::new(LaserScan::from_msg(scan, MeasuringMode::DEFAULT)),
+        });
         self.scans.push(DecodedScan {
             scan_counter: scan.scan_counter,
             values: scan.values.to_vec(),
@@ -175,11 +212,10 @@ impl HostSide {
         let Some(sent) = self.sent.pop_front() else {
             return;
         };
-        let t_s = self.sync.clock().to_host_s(scan.stamp_us);
-        let estimate = self.estimator.on_scan(t_s, scan);
         self.records.push(ScanRecord {
             t_s,
-            estimate,
+            estimate: [0.0; 3],
+            placed: self.estimator.trajectory_len(),
             truth: sent.truth,
         });
     }

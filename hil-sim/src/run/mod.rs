@@ -1,5 +1,6 @@
 //! `hil-sim run`: the whole chain on a seeded world — emulated LMS2xx and GPS → pseudo-terminals
-//! → the firmware tasks → the host link → the host's estimate — with fault injection and an
+//! → the firmware tasks → the host link → the host library's pipeline, as the daemon runs it
+//! ([`estimator`]: method 2 indoors, method 1 with GPS outdoors) — with fault injection and an
 //! account of every telegram.
 //!
 //! The run is lock-step on a virtual clock ([`engine`]), so the same seed, world, duration and
@@ -7,7 +8,9 @@
 //! It writes into the output directory:
 //!
 //! * `trajectory.tsv`: the host's estimate per scan received intact, `timestamp_s x_m y_m
-//!   theta_rad`, in the `map` frame (origin: the robot's pose at its first scan);
+//!   theta_rad`, as the pipeline holds it at the end of the run, in the `map` frame (origin:
+//!   the robot's pose at its first scan; once method 1 is aligned to GPS, the local frame at
+//!   the datum, which is the world frame);
 //! * `ground_truth.tsv`: the true pose at the same scans, in the same frame;
 //! * `scans.tsv`: every scan the host decoded, `scan_counter` then the range words;
 //! * `fixes.jsonl`: every GPS fix message the host decoded, one JSON object a line, without
@@ -207,7 +210,7 @@ fn run_chain(
         scan_truth: None,
         gps_log: None,
         bring_up,
-        pixel_m: if outdoor { 0.1 } else { 0.05 },
+        uses_landmarks: outdoor,
     };
     let (summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
     write_outputs(&options.out, &received, &summary)?;
@@ -416,11 +419,7 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
             config.laser.unit = recording.unit;
             config
         },
-        pixel_m: if matches!(options.source, ReplaySource::Victoria(_)) {
-            0.1
-        } else {
-            0.05
-        },
+        uses_landmarks: matches!(options.source, ReplaySource::Victoria(_)),
     };
     let run_options = RunOptions {
         world: WorldKind::Indoor,
@@ -448,7 +447,8 @@ struct Chain {
     gps_log: Option<(Vec<LocalGpsFix>, f64)>,
     /// How the firmware in this process brings the laser up.
     bring_up: BringUpConfig,
-    pixel_m: f64,
+    /// Trees and GPS, method 1 (outdoors, Victoria Park); else the occupancy grid, method 2.
+    uses_landmarks: bool,
 }
 
 fn check_duration(duration_s: f64) -> io::Result<()> {
@@ -488,7 +488,12 @@ fn execute(
         scan_truth: chain.scan_truth,
         gps_log: chain.gps_log,
     };
-    let host = HostSide::new(Estimator::new(chain.pixel_m));
+    let estimator = if chain.uses_landmarks {
+        Estimator::ekf([chain.datum.lat_deg, chain.datum.lon_deg])
+    } else {
+        Estimator::grid().map_err(io::Error::other)?
+    };
+    let host = HostSide::new(estimator);
     let duration_us = (duration_s * 1e6).round() as u64;
     let wall = std::time::Instant::now();
     if let Some(mut lines) = lines {
@@ -510,6 +515,7 @@ fn execute(
             true,
         );
         engine.run(duration_us)?;
+        engine.host.finish();
         let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
         return Ok((summary, Received::take(&mut engine.host)));
     }
@@ -549,6 +555,7 @@ fn execute(
     let outcome = engine.run(duration_us);
     board.stop();
     outcome?;
+    engine.host.finish();
     let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
     Ok((summary, Received::take(&mut engine.host)))
 }
@@ -562,6 +569,7 @@ fn gps_rate_for(baud: u32) -> u32 {
 /// What the host received, for the outputs.
 struct Received {
     records: Vec<ScanRecord>,
+    geo_referenced: bool,
     scans: Vec<DecodedScan>,
     fixes: Vec<protocol::GpsFixMsg>,
 }
@@ -570,6 +578,7 @@ impl Received {
     fn take(host: &mut HostSide) -> Received {
         Received {
             records: std::mem::take(&mut host.records),
+            geo_referenced: host.geo_referenced,
             scans: std::mem::take(&mut host.scans),
             fixes: std::mem::take(&mut host.fixes),
         }
@@ -578,17 +587,19 @@ impl Received {
 
 fn write_outputs(out: &Path, received: &Received, summary: &RunSummary) -> io::Result<()> {
     let records = &received.records;
-    let origin = records.first().map(|r| r.truth);
+    let origin = records
+        .first()
+        .map(|r| r.truth)
+        .filter(|_| !received.geo_referenced);
+    let frame = if received.geo_referenced {
+        "map frame: the local frame at the GPS datum"
+    } else {
+        "map frame: the first scan's pose"
+    };
     let mut trajectory = BufWriter::new(fs::File::create(out.join("trajectory.tsv"))?);
     let mut truth = BufWriter::new(fs::File::create(out.join("ground_truth.tsv"))?);
-    writeln!(
-        trajectory,
-        "# timestamp_s x_m y_m theta_rad (map frame: the first scan's pose)"
-    )?;
-    writeln!(
-        truth,
-        "# timestamp_s x_m y_m theta_rad (map frame: the first scan's pose)"
-    )?;
+    writeln!(trajectory, "# timestamp_s x_m y_m theta_rad ({frame})")?;
+    writeln!(truth, "# timestamp_s x_m y_m theta_rad ({frame})")?;
     for record in records {
         let [x, y, theta] = record.estimate;
         writeln!(trajectory, "{:.6} {x:.6} {y:.6} {theta:.6}", record.t_s)?;

@@ -180,15 +180,17 @@ impl RunSummary {
                     .map_or("unknown".into(), |s| format!("{:?}", s.laser_state)),
                 final_status_received: status.is_some(),
             },
-            estimate: estimate_error(&host.records),
+            estimate: estimate_error(&host.records, host.geo_referenced),
             laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
         }
     }
 }
 
-fn estimate_error(records: &[super::host_side::ScanRecord]) -> EstimateError {
-    let origin = records.first().map(|r| r.truth);
+/// The error of `records`' estimates, in the frame of the first scan's true pose, or in the
+/// world frame (the local frame at its datum) when the estimates are `geo_referenced`.
+fn estimate_error(records: &[super::host_side::ScanRecord], geo_referenced: bool) -> EstimateError {
+    let origin = records.first().map(|r| r.truth).filter(|_| !geo_referenced);
     let mut sum_sq_m = 0.0;
     let mut sum_sq_rad = 0.0;
     let mut final_position_m = 0.0;

@@ -8,6 +8,7 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use host::ekf_slam::EkfPipelineOptions;
+use host::georef::{GeoReferencer, GeoReferencerOptions};
 use host::slam::{GridPipelineOptions, SlamOptions};
 use serde::{Deserialize, Serialize};
 
@@ -130,6 +131,17 @@ impl SlamConfig {
             },
             map_resolution_m: self.grid_resolution_m,
         }
+    }
+
+    /// The geo-referencing of the grid method's map: its trajectory aligned to the fixes.
+    pub fn geo_referencer(&self, datum_lat_lon_deg: Option<[f64; 2]>) -> GeoReferencer {
+        GeoReferencer::new(
+            GeoReferencerOptions {
+                antenna_in_robot: self.antenna_in_robot,
+                ..GeoReferencerOptions::default()
+            },
+            datum_lat_lon_deg,
+        )
     }
 
     /// The EKF pipeline's options (method 1), with the local metric frame at

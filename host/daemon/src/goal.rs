@@ -1,10 +1,11 @@
 //! Goals set on the image: pixel → WGS84 (through the image's geo-referencing) → the local
-//! metric frame at the datum, which is the map frame once the map is aligned to GPS.
+//! metric frame at the datum (`enu`) → the map frame, through the map's alignment to GPS.
 
 use std::sync::Arc;
 
 use crate::state::{GoalError, GoalInMap, GoalRequest, GoalResolver, SharedState};
 use host::geoimage::GeoImage;
+use host::geometry::Pose2;
 use host::georef::LocalFrame;
 
 /// Resolves goals against the live map and the geo-referenced image.
@@ -74,7 +75,7 @@ impl MapGoalResolver {
 impl GoalResolver for MapGoalResolver {
     fn resolve(&self, request: &GoalRequest) -> Result<GoalInMap, GoalError> {
         let [lon_deg, lat_deg] = self.geodetic(request)?;
-        let (datum, map_points) = {
+        let (datum, enu_from_map, map_points) = {
             let state = self
                 .state
                 .read()
@@ -91,13 +92,14 @@ impl GoalResolver for MapGoalResolver {
                 .copied()
                 .chain(state.landmarks.iter().map(|l| [l.x_m, l.y_m]))
                 .collect();
-            (datum, points)
+            (datum, state.enu_from_map.unwrap_or(Pose2::IDENTITY), points)
         };
         let frame = LocalFrame::new(datum[0], datum[1], 0.0)
             .map_err(|e| GoalError::Invalid(e.to_string()))?;
-        let [x_m, y_m, _] = frame
+        let [east_m, north_m, _] = frame
             .to_enu_m(lat_deg, lon_deg, 0.0)
             .map_err(|e| GoalError::Invalid(e.to_string()))?;
+        let [x_m, y_m] = enu_from_map.inverse().transform_point([east_m, north_m]);
         let nearest_m = map_points
             .iter()
             .map(|p| (p[0] - x_m).hypot(p[1] - y_m))

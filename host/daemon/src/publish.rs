@@ -4,7 +4,8 @@
 use crate::state::{GridView, LandmarkView, LiveState, PoseView};
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
-use host::georef::LocalFrame;
+use host::geometry::Pose2;
+use host::georef::{GeoReferencer, LocalFrame};
 use host::grid::{MapExport, MapExportOptions};
 use host::slam::GridPipeline;
 
@@ -49,6 +50,8 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
         })
         .collect();
     state.datum_lat_lon_deg = frame.map(|f| [f.datum_lat_deg(), f.datum_lon_deg()]);
+    // Once aligned, the EKF's map frame is the `enu` frame itself.
+    state.enu_from_map = frame.map(|_| Pose2::IDENTITY);
     state.pixel_from_map = match (frame, image) {
         (Some(frame), Some(image)) => pixel_from_map(frame, image, [pose[0], pose[1]]),
         _ => None,
@@ -56,24 +59,43 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
 }
 
 /// Writes the grid pipeline's estimate into `state`: the grid always, the pose and trajectory
-/// when `owns_pose` (no EKF running).
-pub fn publish_grid(state: &mut LiveState, grid: &GridPipeline, owns_pose: bool) {
+/// when `owns_pose` (no EKF running), geo-referenced through `georef` once it is aligned.
+pub fn publish_grid(
+    state: &mut LiveState,
+    grid: &GridPipeline,
+    owns_pose: bool,
+    georef: Option<&GeoReferencer>,
+    image: Option<&GeoImage>,
+) {
     state.grid = Some(grid_view(grid));
     if owns_pose {
-        publish_grid_pose(state, grid);
+        publish_grid_pose(state, grid, georef, image);
     }
 }
 
-/// Writes the grid pipeline's pose and trajectory into `state` (cheap: no grid drawn).
-pub fn publish_grid_pose(state: &mut LiveState, grid: &GridPipeline) {
+/// Writes the grid pipeline's pose and trajectory into `state` (cheap: no grid drawn), with
+/// their latitude, longitude and image pixels once `georef` has aligned the map to GPS.
+pub fn publish_grid_pose(
+    state: &mut LiveState,
+    grid: &GridPipeline,
+    georef: Option<&GeoReferencer>,
+    image: Option<&GeoImage>,
+) {
     let pose = grid.pose();
     let trajectory = grid.trajectory();
+    let aligned = georef.and_then(|g| Some((*g.frame()?, g.alignment()?.enu_from_map)));
+    let lon_lat = |xy: [f64; 2]| {
+        aligned.and_then(|(frame, enu_from_map)| {
+            frame.to_lon_lat_deg(enu_from_map.transform_point(xy)).ok()
+        })
+    };
+    let pose_lon_lat = lon_lat([pose.x_m, pose.y_m]);
     state.pose = PoseView {
         x_m: pose.x_m,
         y_m: pose.y_m,
         theta_rad: pose.theta_rad,
-        lat_deg: None,
-        lon_deg: None,
+        lat_deg: pose_lon_lat.map(|p| p[1]),
+        lon_deg: pose_lon_lat.map(|p| p[0]),
         // Scan matching against the submap pins the pose to about a cell.
         position_cov_m2: [0.05f64.powi(2), 0.0, 0.05f64.powi(2)],
         time_s: trajectory.last().map_or(0.0, |p| p.0),
@@ -82,6 +104,37 @@ pub fn publish_grid_pose(state: &mut LiveState, grid: &GridPipeline) {
         .iter()
         .map(|(_, p)| [p.x_m, p.y_m])
         .collect();
+    state.trajectory_wgs84 = state
+        .trajectory_m
+        .iter()
+        .filter_map(|&xy| lon_lat(xy))
+        .collect();
+    state.datum_lat_lon_deg = aligned.map(|(f, _)| [f.datum_lat_deg(), f.datum_lon_deg()]);
+    state.enu_from_map = aligned.map(|(_, enu_from_map)| enu_from_map);
+    state.pixel_from_map = match (aligned, image) {
+        (Some((frame, enu_from_map)), Some(image)) => {
+            let centre_in_enu = enu_from_map.transform_point([pose.x_m, pose.y_m]);
+            pixel_from_map(&frame, image, centre_in_enu)
+                .map(|pixel_from_enu| compose_affine(pixel_from_enu, enu_from_map))
+        }
+        _ => None,
+    };
+}
+
+/// `pixel_from_map` from `pixel_from_enu` (`[a, b, c, d, e, f]` as in
+/// [`LiveState::pixel_from_map`]) and the rigid `enu_from_map`.
+fn compose_affine(pixel_from_enu: [f64; 6], enu_from_map: Pose2) -> [f64; 6] {
+    let [a, b, c, d, e, f] = pixel_from_enu;
+    let (sin, cos) = enu_from_map.theta_rad.sin_cos();
+    let (tx, ty) = (enu_from_map.x_m, enu_from_map.y_m);
+    [
+        a + b * tx + c * ty,
+        b * cos + c * sin,
+        c * cos - b * sin,
+        d + e * tx + f * ty,
+        e * cos + f * sin,
+        f * cos - e * sin,
+    ]
 }
 
 /// The affine map → pixel transform fitted at three points around `centre_m` (the frame is
@@ -128,21 +181,6 @@ fn thinned<T: Clone>(items: &[T], max: usize) -> Vec<T> {
     out
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn thinning_keeps_ends_and_bounds_the_count() {
-        let items: Vec<usize> = (0..10_001).collect();
-        let out = thinned(&items, 100);
-        assert!(out.len() <= 101, "{}", out.len());
-        assert_eq!(out.first(), Some(&0));
-        assert_eq!(out.last(), Some(&10_000));
-        assert_eq!(thinned(&items[..50], 100).len(), 50);
-    }
-}
-
 /// The grid pipeline's global grid as the live view shows it.
 pub fn grid_view(grid: &GridPipeline) -> GridView {
     let export = MapExport::from_grid(&grid.global_grid(), &MapExportOptions::default());
@@ -154,5 +192,33 @@ pub fn grid_view(grid: &GridPipeline) -> GridView {
         resolution_m: export.resolution_m(),
         origin_m: export.lower_corner_in_grid(),
         size_cells: [export.width_px() as u32, export.height_px() as u32],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn composed_pixel_transform_maps_through_the_alignment() {
+        let pixel_from_enu = [10.0, 2.0, 0.5, -3.0, -0.25, -2.0];
+        let enu_from_map = super::Pose2::new(5.0, -7.0, 0.8);
+        let composed = super::compose_affine(pixel_from_enu, enu_from_map);
+        let apply = |m: [f64; 6], [x, y]: [f64; 2]| {
+            [m[0] + m[1] * x + m[2] * y, m[3] + m[4] * x + m[5] * y]
+        };
+        let point_in_map = [3.0, 4.0];
+        let expected = apply(pixel_from_enu, enu_from_map.transform_point(point_in_map));
+        let got = apply(composed, point_in_map);
+        assert!((expected[0] - got[0]).abs() < 1e-12 && (expected[1] - got[1]).abs() < 1e-12);
+    }
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_ends_and_bounds_the_count() {
+        let items: Vec<usize> = (0..10_001).collect();
+        let out = thinned(&items, 100);
+        assert!(out.len() <= 101, "{}", out.len());
+        assert_eq!(out.first(), Some(&0));
+        assert_eq!(out.last(), Some(&10_000));
+        assert_eq!(thinned(&items[..50], 100).len(), 50);
     }
 }

@@ -11,7 +11,7 @@ use protocol::MeasuringMode;
 use crate::config::DaemonConfig;
 use crate::publish::{publish_ekf, publish_grid};
 use crate::runner::DaemonError;
-use crate::runner::RunOutcome;
+use crate::runner::{RunOutcome, on_grid_event};
 use crate::state::LiveState;
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
@@ -45,6 +45,8 @@ pub fn replay(
         .runs_grid()
         .then(|| GridPipeline::new(config.slam.grid_pipeline_options()))
         .transpose()?;
+    let mut grid_georef = (grid.is_some() && ekf.is_none())
+        .then(|| config.slam.geo_referencer(config.georef.datum_lat_lon_deg));
     let bar = if progress {
         let bar = ProgressBar::new(recording.link.len() as u64);
         bar.set_style(
@@ -66,7 +68,7 @@ pub fn replay(
                         ekf.on_event(event);
                     }
                     if let Some(grid) = grid.as_mut() {
-                        grid.on_event(event);
+                        on_grid_event(grid, grid_georef.as_mut(), event);
                     }
                 }
             }
@@ -82,7 +84,10 @@ pub fn replay(
     };
     if let Some(grid) = grid.as_mut() {
         grid.finish();
-        publish_grid(&mut state, grid, ekf.is_none());
+        if let Some(georef) = grid_georef.as_mut() {
+            georef.align(&grid.trajectory());
+        }
+        publish_grid(&mut state, grid, ekf.is_none(), grid_georef.as_ref(), image);
     }
     if let Some(ekf) = &ekf {
         publish_ekf(&mut state, ekf, image);
@@ -91,6 +96,7 @@ pub fn replay(
         RunOutcome {
             ekf,
             grid,
+            grid_georef,
             state,
             recording: None,
         },

@@ -27,6 +27,7 @@ use crate::publish::{grid_view, publish_ekf, publish_grid, publish_grid_pose};
 use crate::state::{LiveState, SharedState};
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
+use host::georef::GeoReferencer;
 use host::link::{LinkSession, SensorEvent};
 use host::recording::{Recorder, RecorderOptions, RecordingError, RecordingSummary};
 use host::scan_match::ScanMatchError;
@@ -116,6 +117,8 @@ pub struct RunOutcome {
     pub ekf: Option<EkfPipeline>,
     /// The grid pipeline, when it ran.
     pub grid: Option<GridPipeline>,
+    /// The grid method's geo-referencing, when the grid pipeline ran without the EKF.
+    pub grid_georef: Option<GeoReferencer>,
     /// The live state at the end.
     pub state: LiveState,
     /// The recording's totals, when recording.
@@ -128,7 +131,7 @@ pub struct Daemon {
     shutdown: Arc<AtomicBool>,
     reader: JoinHandle<()>,
     ekf: Option<JoinHandle<EkfPipeline>>,
-    grid: Option<JoinHandle<GridPipeline>>,
+    grid: Option<JoinHandle<(GridPipeline, Option<GeoReferencer>)>>,
     recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
     live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
     web: Option<crate::web::WebServer>,
@@ -203,9 +206,13 @@ impl Daemon {
             let pipeline = GridPipeline::new(config.slam.grid_pipeline_options())?;
             let state = state.clone();
             let owns_pose = !config.slam.method.runs_ekf();
+            // With the EKF running, its own GPS alignment geo-references the view.
+            let georef =
+                owns_pose.then(|| config.slam.geo_referencer(config.georef.datum_lat_lon_deg));
             let every = config.slam.grid_redraw_every_scans;
+            let image = image.clone();
             Some(spawn("grid", move || {
-                run_grid(pipeline, &rx, &state, owns_pose, every)
+                run_grid(pipeline, georef, &rx, &state, image.as_deref(), every)
             })?)
         } else {
             None
@@ -320,10 +327,13 @@ impl Daemon {
             .ekf
             .map(|h| h.join().map_err(|_| DaemonError::Thread("ekf")))
             .transpose()?;
-        let grid = self
-            .grid
-            .map(|h| h.join().map_err(|_| DaemonError::Thread("grid")))
-            .transpose()?;
+        let (grid, grid_georef) = match self.grid {
+            Some(handle) => {
+                let (grid, georef) = handle.join().map_err(|_| DaemonError::Thread("grid"))?;
+                (Some(grid), georef)
+            }
+            None => (None, None),
+        };
         let recording = self
             .recorder
             .map(|h| h.join().map_err(|_| DaemonError::Thread("recorder")))
@@ -339,6 +349,7 @@ impl Daemon {
         Ok(RunOutcome {
             ekf,
             grid,
+            grid_georef,
             state,
             recording,
         })
@@ -488,33 +499,62 @@ fn run_ekf(
 
 fn run_grid(
     mut pipeline: GridPipeline,
+    mut georef: Option<GeoReferencer>,
     rx: &Receiver<SensorEvent>,
     state: &RwLock<LiveState>,
-    owns_pose: bool,
+    image: Option<&GeoImage>,
     redraw_every_scans: u32,
-) -> GridPipeline {
+) -> (GridPipeline, Option<GeoReferencer>) {
+    let owns_pose = georef.is_some();
     let mut scans = 0u32;
     for event in rx {
-        pipeline.on_event(&event);
+        on_grid_event(&mut pipeline, georef.as_mut(), &event);
         if !matches!(event, SensorEvent::Scan { .. }) {
             continue;
         }
         scans += 1;
         if scans.is_multiple_of(redraw_every_scans) {
             let view = grid_view(&pipeline);
+            if let Some(georef) = georef.as_mut() {
+                georef.align(&pipeline.trajectory());
+            }
             if let Ok(mut s) = state.write() {
                 s.grid = Some(view);
             }
         }
         if owns_pose && let Ok(mut s) = state.write() {
-            publish_grid_pose(&mut s, &pipeline);
+            publish_grid_pose(&mut s, &pipeline, georef.as_ref(), image);
         }
     }
     pipeline.finish();
-    if let Ok(mut s) = state.write() {
-        publish_grid(&mut s, &pipeline, owns_pose);
+    if let Some(georef) = georef.as_mut() {
+        georef.align(&pipeline.trajectory());
     }
-    pipeline
+    if let Ok(mut s) = state.write() {
+        publish_grid(&mut s, &pipeline, owns_pose, georef.as_ref(), image);
+    }
+    (pipeline, georef)
+}
+
+/// One sensor event into the grid pipeline, and its fixes into the geo-referencing: the live
+/// run and the replay of its recording go through here alike.
+pub(crate) fn on_grid_event(
+    pipeline: &mut GridPipeline,
+    georef: Option<&mut GeoReferencer>,
+    event: &SensorEvent,
+) {
+    pipeline.on_event(event);
+    if let (
+        Some(georef),
+        SensorEvent::Fix {
+            host_time_s, fix, ..
+        },
+    ) = (georef, event)
+    {
+        // A fix that cannot be placed in the `enu` frame is left out, as a fix without a
+        // position is.
+        let _ = georef.add_fix(*host_time_s, fix);
+    }
 }
 
 /// The recorder thread: writes what the reader hands over, flushes on the interval.

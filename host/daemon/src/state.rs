@@ -4,6 +4,7 @@
 use std::sync::{Arc, RwLock};
 
 pub use host::PoseView;
+use host::geometry::Pose2;
 pub use host::link::LinkCounters;
 use serde::{Deserialize, Serialize};
 
@@ -56,9 +57,13 @@ pub struct LiveState {
     /// Map frame → image pixels, once the map is geo-referenced: `[a, b, c, d, e, f]` with
     /// `col = a + b·x_m + c·y_m`, `row = d + e·x_m + f·y_m` (fitted over the map's extent).
     pub pixel_from_map: Option<[f64; 6]>,
-    /// The datum `[lat_deg, lon_deg]` of the local metric frame that the map frame is, once
-    /// the map is geo-referenced.
+    /// The datum `[lat_deg, lon_deg]` of the local metric frame (`enu`), once the map is
+    /// geo-referenced.
     pub datum_lat_lon_deg: Option<[f64; 2]>,
+    /// Where the map frame lies in the `enu` frame at the datum, once the map is
+    /// geo-referenced: the identity for the EKF method (its map becomes the `enu` frame),
+    /// the fitted alignment for the grid method.
+    pub enu_from_map: Option<Pose2>,
 }
 
 /// The geo-referenced image the web view draws under the map.

@@ -14,9 +14,12 @@
 //!   its 3×3 covariance and residual.
 //! * [`write_geojson`] / [`feature_collection`] and [`write_kml`] / [`kml_document`]: a
 //!   trajectory and [`LandmarkInEnu`]s as GeoJSON (RFC 7946) and KML 2.2 in WGS84.
+//! * [`GeoReferencer`]: downstream of either SLAM method, a trajectory and the fixes give
+//!   `enu_from_map` ([`MapAlignment`]) with its covariance, receiver jumps set aside.
 //! * [`GeoRefError`]: every failure of the module, one enum.
 
 mod error;
+mod geo_referencer;
 mod geojson_export;
 mod gps_measurement;
 mod kml_export;
@@ -25,6 +28,7 @@ mod local_frame;
 mod rigid_alignment;
 
 pub use error::GeoRefError;
+pub use geo_referencer::{GeoReferencer, GeoReferencerOptions, MapAlignment};
 pub use geojson_export::{feature_collection, write_geojson};
 pub use gps_measurement::{CovarianceSource, GpsMeasurement, GpsMeasurementOptions};
 pub use kml_export::{kml_document, write_kml};

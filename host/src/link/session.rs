@@ -261,6 +261,40 @@ mod tests {
         assert_eq!(session.counters().frames, 2);
     }
 
+    fn fix(source: protocol::FixSource, num_sats: Option<u8>) -> Message {
+        Message::GpsFix(GpsFixMsg {
+            stamp_us: 1,
+            source,
+            talker: *b"GP",
+            date: None,
+            time: None,
+            quality: protocol::FixQuality::Gps,
+            position: Some(protocol::Position {
+                lat_ndeg: 48_000_000_000,
+                lon_ndeg: 11_000_000_000,
+            }),
+            alt_msl_mm: None,
+            geoid_sep_mm: None,
+            num_sats,
+            hdop_centi: None,
+            speed_mm_s: None,
+            course_cdeg: None,
+            gst: None,
+        })
+    }
+
+    #[test]
+    fn a_fix_without_a_satellite_count_keeps_the_last_one() {
+        use protocol::FixSource::{Gga, Rmc};
+        let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+        session.feed(&board_frames(&[fix(Gga, Some(9)), fix(Rmc, None)]), 0.0);
+        let counters = session.counters();
+        assert_eq!(counters.gps_fixes, 2);
+        assert_eq!(counters.gps_satellites, 9);
+        session.feed(&board_frames(&[fix(Gga, Some(7))]), 1.0);
+        assert_eq!(session.counters().gps_satellites, 7);
+    }
+
     #[test]
     fn a_damaged_frame_is_counted_and_the_rest_still_decode() {
         let mut session = LinkSession::new(MeasuringMode::DEFAULT);
