@@ -21,7 +21,10 @@ use std::time::{Duration, Instant};
 use hil_sim::demo::{self, DemoOptions};
 use hil_sim::pty::PtyLink;
 use hil_sim::world::WorldKind;
-use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, Message, RangeUnit, ScanMsg};
+use host::link::LinkSession;
+use host::recording::{LinkDirection, read_recording};
+use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions};
+use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, MeasuringMode, Message, RangeUnit, ScanMsg};
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::replay::replay;
 use robot_host::runner::{Daemon, SerialPortOpener};
@@ -232,6 +235,44 @@ fn demo_indoor_builds_an_occupancy_grid() {
     }
     let yaml = fs::read_to_string(out.join("map.yaml")).expect("yaml");
     assert!(yaml.contains("resolution: 0.05"), "{yaml}");
+
+    // The library's method 2 pipeline, fed the recorded link without the daemon, gives the
+    // daemon's trajectory: the daemon adds nothing to the method.
+    let recording = read_recording(&out.join("run.mcap")).expect("the recording reads");
+    let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+    let mut pipeline = GridPipeline::new(GridPipelineOptions {
+        slam: SlamOptions {
+            // As the demo configures the daemon indoors.
+            max_range_m: 8.0,
+            ..SlamOptions::default()
+        },
+        map_resolution_m: 0.05,
+    })
+    .expect("valid options");
+    for record in &recording.link {
+        match record.direction {
+            LinkDirection::FromBoard => {
+                for event in session.feed(&record.bytes, record.time_s).events {
+                    pipeline.on_event(&event);
+                }
+            }
+            LinkDirection::ToBoard => session.replay_sent(&record.bytes, record.time_s),
+            LinkDirection::Reconnect => session.reconnected(),
+        }
+    }
+    pipeline.finish();
+    let mut library = String::from("# host_time_s\tx_m\ty_m\ttheta_rad\n");
+    for (t, p) in pipeline.trajectory() {
+        library.push_str(&format!(
+            "{t:.6}\t{:.4}\t{:.4}\t{:.5}\n",
+            p.x_m, p.y_m, p.theta_rad
+        ));
+    }
+    let daemon = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory");
+    assert_eq!(
+        library, daemon,
+        "the library pipeline gives the daemon's trajectory"
+    );
 }
 
 /// Frames as the board sends them.

@@ -1,5 +1,6 @@
-//! `hil-sim replay-victoria`: EKF submapping SLAM ([`host::ekf_slam`]) over the Victoria Park
-//! run, optionally fusing its GPS, measured against that GPS.
+//! `hil-sim replay-victoria`: method 1 ([`host::ekf_slam::LandmarkSlam`], with the car's
+//! odometry) over the Victoria Park run, optionally fusing its GPS, measured against that GPS.
+//! This adapter only reads the files, merges the streams and writes the outputs.
 //!
 //! The run's three streams share one clock and are merged by time: every drive input
 //! (`inputs.dat`) is held until the next event; each event first moves the filter to its time
@@ -29,17 +30,16 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use host::ekf_slam::frames::compose_pose;
 use host::ekf_slam::{
-    AckermannGeometry, AckermannInput, AckermannModel, GpsAnchor, GpsAnchorOptions, GpsOutcome,
-    LandmarkObservation, MapSmoother, MapSmootherOptions, MapSmootherStats, RangeBearingModel,
-    SubmapSlam, SubmapSlamOptions, SubmapSlamStats,
+    AckermannGeometry, AckermannInput, AckermannModel, GpsAnchorOptions, LandmarkObservation,
+    LandmarkSlam, LandmarkSlamOptions, MapSmootherStats, RangeBearingModel, SubmapSlam,
+    SubmapSlamOptions, SubmapSlamStats, TimedPose,
 };
 use host::georef::{
     AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
     write_geojson, write_kml,
 };
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::Matrix2;
 use serde::Serialize;
 
 use crate::replay::LogError;
@@ -347,67 +347,69 @@ fn run_filter(park: &VictoriaPark, options: &VictoriaSlamOptions) -> FilterRun {
         events.retain(|e| e.0 <= first_s + duration_s);
     }
     let started = Instant::now();
-    let mut slam = SubmapSlam::new(options.motion, options.sensor, options.slam, [0.0; 3]);
-    let mut trajectory = Vec::with_capacity(park.scans.len());
+    let mut method = LandmarkSlam::new(
+        options.motion,
+        options.sensor,
+        LandmarkSlamOptions {
+            slam: options.slam,
+            gps: GpsAnchorOptions {
+                alignment_span_m: GPS_ALIGNMENT_SPAN_M,
+                gate_distance2: options.gps_gate_distance2,
+                ..GpsAnchorOptions::default()
+            },
+            antenna_in_robot: options.antenna_in_robot(),
+            // The trajectory is the laser's, which the GPS track follows.
+            reported_in_robot: Some(options.sensor.sensor_in_robot),
+            ..LandmarkSlamOptions::default()
+        },
+    );
+    if let Some(&(first_s, _)) = events.first() {
+        method.start_at(first_s);
+    }
     let mut step_times = Vec::with_capacity(park.scans.len());
-    let mut input = AckermannInput::default();
-    let mut last_t_s = events.first().map_or(0.0, |e| e.0);
-    let mut anchor = GpsAnchor::new(GpsAnchorOptions {
-        alignment_span_m: GPS_ALIGNMENT_SPAN_M,
-        gate_distance2: options.gps_gate_distance2,
-        ..GpsAnchorOptions::default()
-    });
     let gps_noise = options.gps_noise();
-    let antenna_in_robot = options.antenna_in_robot();
-
     for &(t_s, event) in &events {
-        let step_started = Instant::now();
-        slam.predict(&input, t_s - last_t_s);
-        last_t_s = t_s;
         match event {
-            Event::Input(i) => input = drive_input(park, i),
+            Event::Input(i) => {
+                method.on_input(t_s, drive_input(park, i));
+            }
             Event::Scan(i) => {
+                let step_started = Instant::now();
                 let observations = scan_observations(park, i, options);
-                let landmarks = slam.global_landmark_count();
-                let joins = slam.stats().joins;
-                slam.observe(&observations);
-                let joined = slam.stats().joins != joins;
+                let landmarks = method.slam().global_landmark_count();
+                let joins = method.slam().stats().joins;
+                method.on_observations(t_s, &observations);
+                let joined = method.slam().stats().joins != joins;
                 step_times.push((landmarks, joined, step_started.elapsed().as_secs_f64()));
-                trajectory.push(StampedPose {
-                    t_s,
-                    pose: laser_pose(&slam, &options.sensor),
-                });
             }
             Event::Gps(i) => {
                 let fix = park.gps[i];
-                let outcome =
-                    anchor.on_fix(&mut slam, [fix.x_m, fix.y_m], &gps_noise, antenna_in_robot);
-                if let GpsOutcome::Aligned(enu_from_map) = outcome {
-                    for stamped in &mut trajectory {
-                        stamped.pose = compose_pose(enu_from_map, stamped.pose).0;
-                    }
-                }
+                method.on_fix(t_s, [fix.x_m, fix.y_m], &gps_noise);
             }
         }
     }
-    slam.close_last_local_map();
-    let smoothing_started = Instant::now();
-    // The fixes are in the frame of gps.dat; the map is too once they aligned it.
-    let fixes_in_map_frame = anchor.is_aligned();
-    let (smoothed, smoother) =
-        smoothed_trajectory(park, options, &events, &slam, fixes_in_map_frame);
-    let smoothing_s = smoothing_started.elapsed().as_secs_f64();
+    let filtered_s = started.elapsed().as_secs_f64();
+    method.finish();
     let wall_s = started.elapsed().as_secs_f64();
+    let stamped = |poses: &[TimedPose]| -> Vec<StampedPose> {
+        poses
+            .iter()
+            .map(|p| StampedPose {
+                t_s: p.t_s,
+                pose: p.pose_in_map,
+            })
+            .collect()
+    };
     FilterRun {
-        trajectory: smoothed,
-        online_trajectory: trajectory,
-        smoother,
-        slam,
+        trajectory: stamped(method.trajectory()),
+        online_trajectory: stamped(method.online_trajectory()),
+        smoother: method.smoother_stats().unwrap_or_default(),
+        slam: method.slam().clone(),
         wall_s,
-        smoothing_s,
+        smoothing_s: wall_s - filtered_s,
         steps: events.len(),
-        gps_fused: anchor.fused,
-        gps_rejected: anchor.rejected,
+        gps_fused: method.anchor().fused,
+        gps_rejected: method.anchor().rejected,
         step_times,
     }
 }
@@ -437,76 +439,6 @@ fn scan_observations(
             diameter_m: Some(d.diameter_m),
         })
         .collect()
-}
-
-/// The laser's pose at each scan estimated again against the finished map, forwards and
-/// backwards ([`MapSmoother`]). The start is the first local map's base, fitted to where the
-/// final map puts its trees ([`SubmapSlam::local_map_bases_in_map`]).
-fn smoothed_trajectory(
-    park: &VictoriaPark,
-    options: &VictoriaSlamOptions,
-    events: &[(f64, Event)],
-    slam: &SubmapSlam<AckermannModel>,
-    use_fixes: bool,
-) -> (Vec<StampedPose>, MapSmootherStats) {
-    let landmarks = slam.landmarks_in_map();
-    let start = slam
-        .local_map_bases_in_map()
-        .first()
-        .copied()
-        .flatten()
-        .or_else(|| slam.global_map().bases_in_map().first().copied())
-        .unwrap_or_default();
-    let mut robot = slam.robot_in_local_map();
-    robot.as_mut_slice()[..3].copy_from_slice(&start);
-    let mut smoother = MapSmoother::new(
-        &options.motion,
-        options.sensor,
-        MapSmootherOptions::default(),
-        &landmarks,
-        robot,
-        Matrix3::identity() * 1e-6,
-    );
-    let gps_noise = options.gps_noise();
-    let antenna_in_robot = options.antenna_in_robot();
-    let mut input = AckermannInput::default();
-    let mut last_t_s = events.first().map_or(0.0, |e| e.0);
-    let mut scan_epochs = Vec::with_capacity(park.scans.len());
-    for &(t_s, event) in events {
-        smoother.predict(&input, t_s - last_t_s);
-        last_t_s = t_s;
-        match event {
-            Event::Input(i) => input = drive_input(park, i),
-            Event::Scan(i) => {
-                let epoch = smoother.observe(&scan_observations(park, i, options));
-                scan_epochs.push((t_s, epoch));
-            }
-            Event::Gps(i) if use_fixes => {
-                let fix = park.gps[i];
-                smoother.observe_position(
-                    [fix.x_m, fix.y_m],
-                    antenna_in_robot,
-                    &gps_noise,
-                    options.gps_gate_distance2,
-                );
-            }
-            Event::Gps(_) => {}
-        }
-    }
-    let poses = smoother.smooth();
-    let trajectory = scan_epochs
-        .into_iter()
-        .map(|(t_s, epoch)| StampedPose {
-            t_s,
-            pose: compose_pose(poses[epoch], options.sensor.sensor_in_robot).0,
-        })
-        .collect();
-    (trajectory, smoother.stats())
-}
-
-/// The laser's pose in the map frame.
-fn laser_pose(slam: &SubmapSlam<AckermannModel>, sensor: &RangeBearingModel) -> [f64; 3] {
-    compose_pose(slam.pose_in_map().0, sensor.sensor_in_robot).0
 }
 
 /// The trajectory's position at `t_s`, interpolated between the poses around it.

@@ -47,10 +47,12 @@ impl Estimator {
         }
     }
 
-    /// Ends the run (the grid method's final refinement).
+    /// Ends the run: the grid method's final refinement, the EKF method's last join and
+    /// smoothing pass.
     pub fn finish(&mut self) {
-        if let Estimator::Grid(pipeline) = self {
-            pipeline.finish();
+        match self {
+            Estimator::Grid(pipeline) => pipeline.finish(),
+            Estimator::Ekf(pipeline) => pipeline.finish(),
         }
     }
 

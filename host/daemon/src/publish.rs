@@ -30,7 +30,7 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
         position_cov_m2: [covariance[(0, 0)], covariance[(0, 1)], covariance[(1, 1)]],
         time_s: ekf.trajectory().last().map_or(0.0, |p| p.time_s),
     };
-    let trajectory = thinned(ekf.trajectory(), MAX_SHOWN_TRAJECTORY_POINTS);
+    let trajectory = thinned(&ekf.trajectory(), MAX_SHOWN_TRAJECTORY_POINTS);
     state.trajectory_m = trajectory
         .iter()
         .map(|p| [p.pose_in_map[0], p.pose_in_map[1]])

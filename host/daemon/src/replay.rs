@@ -89,7 +89,8 @@ pub fn replay(
         }
         publish_grid(&mut state, grid, ekf.is_none(), grid_georef.as_ref(), image);
     }
-    if let Some(ekf) = &ekf {
+    if let Some(ekf) = ekf.as_mut() {
+        ekf.finish();
         publish_ekf(&mut state, ekf, image);
     }
     Ok((

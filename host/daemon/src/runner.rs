@@ -491,6 +491,7 @@ fn run_ekf(
             }
         }
     }
+    pipeline.finish();
     if let Ok(mut s) = state.write() {
         publish_ekf(&mut s, &pipeline, image);
     }

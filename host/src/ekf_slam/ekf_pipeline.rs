@@ -1,16 +1,16 @@
 //! Method 1 on the board link's events: trees found in each scan drive the EKF with local
 //! maps, and GPS fixes put the map into a local metric frame at the datum and then update it.
 //!
-//! The board carries no odometry, so the robot moves by the constant-velocity model between
-//! scans; time differences come from the board's stamps, so a replay gives the same
-//! estimates as the live run whatever the host's speed.
+//! The method itself is [`LandmarkSlam`]; this adapter finds the trees in each scan and turns
+//! fixes into `enu` measurements. The board carries no odometry, so the robot moves by the
+//! constant-velocity model between scans; time differences come from the board's stamps, so
+//! a replay gives the same estimates as the live run whatever the host's speed.
 
 use nalgebra::{Matrix2, Matrix3};
 
-use super::frames::compose_pose;
 use super::{
-    ConstantVelocityModel, GpsAnchor, GpsAnchorOptions, GpsOutcome, LandmarkObservation,
-    RangeBearingModel, SubmapSlam, SubmapSlamOptions,
+    ConstantVelocityModel, LandmarkObservation, LandmarkSlam, LandmarkSlamOptions,
+    RangeBearingModel, SubmapSlamOptions,
 };
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
 use crate::landmarks::{FeatureKind, FrontEndOptions, extract_features};
@@ -78,15 +78,13 @@ pub struct EkfPipelineStats {
 /// EKF SLAM over the link's scans and fixes. See the [module documentation](self).
 #[derive(Debug)]
 pub struct EkfPipeline {
-    slam: SubmapSlam<ConstantVelocityModel>,
+    method: LandmarkSlam<ConstantVelocityModel>,
     front_end: FrontEndOptions,
-    anchor: GpsAnchor,
     frame: Option<LocalFrame>,
     gps_options: GpsMeasurementOptions,
-    antenna_in_robot: [f64; 2],
     max_range_m: f64,
-    last_board_time_s: Option<f64>,
-    trajectory: Vec<StampedPose>,
+    /// Host time of each scan the method used, in order.
+    host_times_s: Vec<f64>,
     stats: EkfPipelineStats,
 }
 
@@ -98,48 +96,39 @@ impl EkfPipeline {
             sigma_range_m: 0.1,
             sigma_bearing_rad: 1f64.to_radians(),
         };
-        let slam_options = SubmapSlamOptions {
-            max_landmarks_per_local_map: options.landmarks_per_local_map,
-            ..SubmapSlamOptions::default()
+        let method_options = LandmarkSlamOptions {
+            slam: SubmapSlamOptions {
+                max_landmarks_per_local_map: options.landmarks_per_local_map,
+                ..SubmapSlamOptions::default()
+            },
+            antenna_in_robot: options.antenna_in_robot,
+            max_predict_s: MAX_PREDICT_S,
+            // The smoothing pass holds the model's own entries at their final values: right
+            // for odometry calibration, wrong for the constant-velocity model's velocity.
+            smooth: false,
+            ..LandmarkSlamOptions::default()
         };
         EkfPipeline {
-            slam: SubmapSlam::new(
-                ConstantVelocityModel::default(),
-                sensor,
-                slam_options,
-                [0.0; 3],
-            ),
+            method: LandmarkSlam::new(ConstantVelocityModel::default(), sensor, method_options),
             front_end: FrontEndOptions::default(),
-            anchor: GpsAnchor::new(GpsAnchorOptions::default()),
             frame: options
                 .datum_lat_lon_deg
                 .and_then(|[lat, lon]| LocalFrame::new(lat, lon, 0.0).ok()),
             gps_options: GpsMeasurementOptions::default(),
-            antenna_in_robot: options.antenna_in_robot,
             max_range_m: options.max_range_m,
-            last_board_time_s: None,
-            trajectory: Vec::new(),
+            host_times_s: Vec::new(),
             stats: EkfPipelineStats::default(),
         }
     }
 
-    /// Uses one sensor reading.
+    /// Uses one sensor reading. Time differences come from the board's stamps.
     pub fn on_event(&mut self, event: &SensorEvent) {
-        let board_time_s = event.board_time_s();
-        if let Some(last) = self.last_board_time_s {
-            let dt_s = board_time_s - last;
-            if dt_s < 0.0 {
-                if matches!(event, SensorEvent::Scan { .. }) {
-                    self.stats.scans_out_of_order += 1;
-                }
-                return;
-            }
-            self.slam.predict(&(), dt_s.min(MAX_PREDICT_S));
-        }
-        self.last_board_time_s = Some(board_time_s);
         match event {
             SensorEvent::Scan {
-                host_time_s, scan, ..
+                host_time_s,
+                board_time_s,
+                scan,
+                ..
             } => {
                 let features =
                     extract_features(&scan.to_range_scan(self.max_range_m), &self.front_end);
@@ -158,20 +147,22 @@ impl EkfPipeline {
                         _ => None,
                     })
                     .collect();
+                if !self.method.on_observations(*board_time_s, &observations) {
+                    self.stats.scans_out_of_order += 1;
+                    return;
+                }
+                self.host_times_s.push(*host_time_s);
                 self.stats.scans += 1;
                 self.stats.tree_observations += observations.len() as u64;
-                self.slam.observe(&observations);
-                self.stats.local_maps = self.slam.stats().joins as u64;
-                self.trajectory.push(StampedPose {
-                    time_s: *host_time_s,
-                    pose_in_map: self.slam.pose_in_map().0,
-                });
+                self.stats.local_maps = self.method.slam().stats().joins as u64;
             }
-            SensorEvent::Fix { fix, .. } => self.on_fix(fix),
+            SensorEvent::Fix {
+                board_time_s, fix, ..
+            } => self.on_fix(*board_time_s, fix),
         }
     }
 
-    fn on_fix(&mut self, fix: &protocol::GpsFixMsg) {
+    fn on_fix(&mut self, board_time_s: f64, fix: &protocol::GpsFixMsg) {
         let Some(position) = fix.position else {
             return;
         };
@@ -186,25 +177,22 @@ impl EkfPipeline {
             return;
         };
         self.stats.fixes += 1;
-        let outcome = self.anchor.on_fix(
-            &mut self.slam,
+        self.method.on_fix(
+            board_time_s,
             measurement.position_in_enu_m,
             &measurement.covariance_in_enu_m2,
-            self.antenna_in_robot,
         );
-        match outcome {
-            GpsOutcome::Aligned(enu_from_map) => {
-                for stamped in &mut self.trajectory {
-                    stamped.pose_in_map = compose_pose(enu_from_map, stamped.pose_in_map).0;
-                }
-            }
-            GpsOutcome::Fused | GpsOutcome::Rejected | GpsOutcome::Paired => {}
-        }
+    }
+
+    /// Ends the run: the last local map is joined into the global map
+    /// ([`LandmarkSlam::finish`]).
+    pub fn finish(&mut self) {
+        self.method.finish();
     }
 
     /// The robot's pose in the map frame and its covariance.
     pub fn pose(&self) -> ([f64; 3], Matrix3<f64>) {
-        self.slam.pose_in_map()
+        self.method.pose()
     }
 
     /// The local metric frame, once there is a datum.
@@ -215,17 +203,25 @@ impl EkfPipeline {
     /// Whether the map frame is the local metric frame at the datum (the map is aligned to
     /// GPS): only then do map positions have a latitude and longitude.
     pub fn is_geo_referenced(&self) -> bool {
-        self.anchor.is_aligned() && self.frame.is_some()
+        self.method.is_aligned() && self.frame.is_some()
     }
 
-    /// Every pose so far, one per scan.
-    pub fn trajectory(&self) -> &[StampedPose] {
-        &self.trajectory
+    /// Every pose so far, one per scan used, at the scan's host time, as estimated at the
+    /// time (re-expressed in the `enu` frame once aligned to GPS).
+    pub fn trajectory(&self) -> Vec<StampedPose> {
+        self.host_times_s
+            .iter()
+            .zip(self.method.trajectory())
+            .map(|(&time_s, timed)| StampedPose {
+                time_s,
+                pose_in_map: timed.pose_in_map,
+            })
+            .collect()
     }
 
     /// The mapped landmarks (global map and current local map) in the map frame.
     pub fn landmarks_in_map(&self) -> Vec<[f64; 2]> {
-        self.slam
+        self.method
             .landmarks_in_map()
             .iter()
             .map(|l| l.position_in_map)
@@ -234,7 +230,7 @@ impl EkfPipeline {
 
     /// The covariance of the landmark positions, for exports.
     pub fn landmark_covariances(&self) -> Vec<Matrix2<f64>> {
-        self.slam
+        self.method
             .landmarks_in_map()
             .iter()
             .map(|l| l.covariance)
@@ -244,8 +240,8 @@ impl EkfPipeline {
     /// Totals so far.
     pub fn stats(&self) -> EkfPipelineStats {
         EkfPipelineStats {
-            fixes_fused: self.anchor.fused as u64,
-            fixes_rejected: self.anchor.rejected as u64,
+            fixes_fused: self.method.anchor().fused as u64,
+            fixes_rejected: self.method.anchor().rejected as u64,
             ..self.stats
         }
     }

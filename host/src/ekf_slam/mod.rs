@@ -15,6 +15,8 @@
 //! * [`MapSmoother`]: the trajectory estimated again against the finished map, forwards and
 //!   backwards.
 //! * [`GpsAnchor`]: GPS fixes align the map to the GPS frame, then update the filter.
+//! * [`LandmarkSlam`]: the method as one type, time-ordered inputs, observations and fixes in,
+//!   poses, trajectory (smoothed at the end) and landmarks out.
 //! * [`EkfPipeline`]: the method on the board link's events (trees from each scan, fixes).
 
 pub mod ackermann;
@@ -29,6 +31,7 @@ pub mod gps_anchor;
 pub mod history_memory;
 pub mod jcbb;
 pub mod landmark_info;
+mod landmark_slam;
 pub mod local_map;
 pub mod local_map_anchors;
 pub mod map_smoother;
@@ -48,6 +51,7 @@ pub use gps_anchor::{GpsAnchor, GpsAnchorOptions, GpsOutcome};
 pub use history_memory::{HistoryMemory, HistoryMemoryOptions, LoopClosure};
 pub use jcbb::{JcbbOptions, jcbb};
 pub use landmark_info::LandmarkInfo;
+pub use landmark_slam::{LandmarkSlam, LandmarkSlamOptions, TimedPose};
 pub use local_map::{LocalMap, ObservationReport};
 pub use local_map_anchors::LocalMapAnchors;
 pub use map_smoother::{MapSmoother, MapSmootherOptions, MapSmootherStats};
