@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::chain_closer::{ChainCloser, ChainContext};
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
 use super::degeneracy::{closure_information, consecutive_information};
 use super::final_refinement::refinement_closures;
@@ -78,45 +79,10 @@ pub struct GraphSlam {
     closures_since_optimization: usize,
     confirmation: ClosureConfirmation,
     /// Searches chains of earlier scans.
-    chain_closer: LoopCloser,
-    chain_confirmation: ClosureConfirmation,
-    /// The last node searched in a chain because a chain closure waits for confirmation.
-    chain_pending_until: usize,
+    chains: ChainCloser,
     /// Every scan added (trusted beams), for the chains.
     scans: Vec<Scan>,
-    /// The chain searched last, kept while the graph holds its scans where they were.
-    last_chain: Option<DrawnChain>,
     stats: SlamStats,
-}
-
-/// A chain of earlier scans drawn into a submap, with its matcher reference.
-///
-/// Its occupancy grid is drawn only when a match in it reaches the acceptance test, which
-/// reads it: most searches end before, and ray casting tens of scans is the dearest part of
-/// drawing a chain.
-#[derive(Debug)]
-struct DrawnChain {
-    /// `(centre, first, last)` node and the optimisations run when it was drawn.
-    key: ([usize; 3], usize),
-    /// The chain's end points; its grid too once drawn (the submap is then finished).
-    submap: SlamSubmap,
-    reference: PreparedReference,
-}
-
-impl DrawnChain {
-    /// Draws the grid of the chain, once: `scans` at `poses_in_map`, the scans and poses the
-    /// chain was made of.
-    fn draw_grid(&mut self, scans: &[Scan], poses_in_map: &[Pose2]) {
-        if self.submap.is_finished() {
-            return;
-        }
-        let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
-        self.submap.reserve_for(scans_at_poses());
-        for (scan, pose) in scans_at_poses() {
-            self.submap.insert_into_grid(scan, pose);
-        }
-        self.submap.finish();
-    }
 }
 
 impl GraphSlam {
@@ -134,11 +100,8 @@ impl GraphSlam {
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
-            chain_closer: LoopCloser::new(options.chain_closure.search.clone())?,
-            chain_confirmation: ClosureConfirmation::new(options.chain_closure.search.confirmation),
-            chain_pending_until: 0,
+            chains: ChainCloser::new(&options)?,
             scans: Vec::new(),
-            last_chain: None,
             stats: SlamStats::default(),
             options,
         })
@@ -178,7 +141,7 @@ impl GraphSlam {
         if self.options.loop_closure.enabled {
             let taken = node.is_multiple_of(every) && self.close_loops(node, &scan, pose_in_map);
             // Every scan is searched while a chain closure waits for its confirmation.
-            let due = node.is_multiple_of(every) || node <= self.chain_pending_until;
+            let due = node.is_multiple_of(every) || self.chains.awaits_confirmation(node);
             if self.options.chain_closure.enabled && due && !taken {
                 self.close_loops_in_chain(node, &scan, pose_in_map);
             }
@@ -269,81 +232,25 @@ impl GraphSlam {
 
     /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
     fn close_loops_in_chain(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
-        let Some(found) = self.search_chain(node, scan, pose_in_map) else {
-            return;
-        };
-        let confirmed = self.chain_confirmation.offer(found, &self.poses_in_local);
-        if confirmed.is_empty() {
-            let window = self.options.chain_closure.search.confirmation.window_scans;
-            self.chain_pending_until = node + window;
-        }
+        let poses = self.poses_in_map();
+        let confirmed = self.chains.close(
+            node,
+            scan,
+            pose_in_map,
+            &ChainContext {
+                poses_in_map: &poses,
+                poses_in_local: &self.poses_in_local,
+                scans: &self.scans,
+                optimizations: self.stats.optimizations,
+            },
+            &mut self.stats.chain_closure_searches,
+        );
         for confirmed in confirmed {
             if self.add_constraint(confirmed) {
                 self.stats.loop_closures += 1;
                 self.stats.chain_closures += 1;
             }
         }
-    }
-
-    /// Searches the scan of `node`, believed at `pose_in_map`, in the chain of earlier scans
-    /// around the one nearest to it ([`super::ChainClosureOptions`]), drawn at the poses the
-    /// graph holds now. The closure is in the frame of that nearest scan.
-    fn search_chain(
-        &mut self,
-        node: usize,
-        scan: &Scan,
-        pose_in_map: Pose2,
-    ) -> Option<FoundClosure> {
-        let chain = &self.options.chain_closure;
-        let last_chained = node.checked_sub(chain.search.min_scans_apart)?;
-        let poses = self.poses_in_map();
-        let distance_m =
-            |pose: &Pose2| (pose.x_m - pose_in_map.x_m).hypot(pose.y_m - pose_in_map.y_m);
-        let centre = (0..=last_chained)
-            .filter(|&n| n < poses.len() && n < self.scans.len())
-            .min_by(|&a, &b| distance_m(&poses[a]).total_cmp(&distance_m(&poses[b])))
-            .filter(|&n| distance_m(&poses[n]) <= chain.search.max_distance_m)?;
-        let first = centre.saturating_sub(chain.half_length_scans);
-        let last = (centre + chain.half_length_scans).min(last_chained);
-        let frame = poses[centre];
-        // Only an optimisation moves earlier scans: until then, the same chain draws the same.
-        let key = ([centre, first, last], self.stats.optimizations);
-        if self
-            .last_chain
-            .as_ref()
-            .is_none_or(|drawn| drawn.key != key)
-        {
-            // The grid waits until a match needs it (`DrawnChain::draw_grid`).
-            let mut submap =
-                SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
-            for (chained, (scan, &pose)) in self.scans[first..=last]
-                .iter()
-                .zip(&poses[first..=last])
-                .enumerate()
-            {
-                submap.insert_points(first + chained, scan, pose);
-            }
-            let reference = self.chain_closer.prepare(&submap.reference_scan());
-            self.last_chain = Some(DrawnChain {
-                key,
-                submap,
-                reference,
-            });
-        }
-        let drawn = self.last_chain.as_mut()?;
-        self.stats.chain_closure_searches += 1;
-        let guess = frame.inverse() * pose_in_map;
-        let candidate = self
-            .chain_closer
-            .align(&drawn.submap, &drawn.reference, scan, guess)?;
-        drawn.draw_grid(&self.scans[first..=last], &poses[first..=last]);
-        let closure = self.chain_closer.accept(&drawn.submap, &candidate)?;
-        Some(FoundClosure {
-            submap_first_node: centre,
-            node,
-            pose_in_submap: closure.pose_in_submap,
-            information_in_robot: Some(closure.information_in_robot),
-        })
     }
 
     /// Adds the final refinement's constraints (`active`: the submaps still active at the
@@ -503,8 +410,23 @@ mod tests {
         let node = earlier.len();
         let origin = truth[0].inverse();
         let believed = origin * truth[node] * Pose2::new(-3.0, 0.0, 0.0);
+        let poses = slam.poses_in_map();
+        let context = ChainContext {
+            poses_in_map: &poses,
+            poses_in_local: &slam.poses_in_local,
+            scans: &slam.scans,
+            optimizations: slam.stats.optimizations,
+        };
+        let mut searches = 0;
         let found = slam
-            .search_chain(node, &slam.options.trusted_beams(last), believed)
+            .chains
+            .search(
+                node,
+                &slam.options.trusted_beams(last),
+                believed,
+                &context,
+                &mut searches,
+            )
             .expect("found in the chain");
         let frame_in_map = slam.pose_in_map(found.submap_first_node).expect("node");
         let error = (origin * truth[node]).inverse() * (frame_in_map * found.pose_in_submap);

@@ -27,6 +27,7 @@
 //! [`SlamResult::global_grid`] draws the global map from them. [`GridPipeline`] is the method as
 //! every adapter runs it: time-stamped scans in, poses, trajectory and the global grid out.
 
+mod chain_closer;
 pub mod closure_confirmation;
 pub mod degeneracy;
 pub mod final_refinement;

@@ -1,0 +1,172 @@
+//! Loop closure in a chain of earlier scans, for a scan no finished submap took.
+//!
+//! A long loop drifts further than the submaps' search window, and a stretch that local
+//! tracking got wrong blurs a whole submap; so a scan the submaps did not take is searched
+//! once more, over a wide window, in a chain of the earlier scans around the one nearest to
+//! it, drawn at the poses the graph holds now ([`super::ChainClosureOptions`]). A closure
+//! enters the graph once a second one agrees ([`ClosureConfirmation`]); while one waits,
+//! every scan is searched.
+
+use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
+use super::loop_closer::LoopCloser;
+use super::options::SlamOptions;
+use super::slam_submap::SlamSubmap;
+use crate::geometry::Pose2;
+use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
+
+/// What the graph holds now, for a chain search.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ChainContext<'a> {
+    /// Every scan's pose in the map as the graph holds it.
+    pub poses_in_map: &'a [Pose2],
+    /// Every scan's pose in the local tracking frame.
+    pub poses_in_local: &'a [Pose2],
+    /// Every scan added (trusted beams).
+    pub scans: &'a [Scan],
+    /// Optimisations run so far: only an optimisation moves earlier scans.
+    pub optimizations: usize,
+}
+
+/// Searches chains of earlier scans. See the [module documentation](self).
+#[derive(Debug)]
+pub(super) struct ChainCloser {
+    options: SlamOptions,
+    closer: LoopCloser,
+    confirmation: ClosureConfirmation,
+    /// The last node searched in a chain because a chain closure waits for confirmation.
+    pending_until: usize,
+    /// The chain searched last, kept while the graph holds its scans where they were.
+    last_chain: Option<DrawnChain>,
+}
+
+/// A chain of earlier scans drawn into a submap, with its matcher reference.
+///
+/// Its occupancy grid is drawn only when a match in it reaches the acceptance test, which
+/// reads it: most searches end before, and ray casting tens of scans is the dearest part of
+/// drawing a chain.
+#[derive(Debug)]
+struct DrawnChain {
+    /// `(centre, first, last)` node and the optimisations run when it was drawn.
+    key: ([usize; 3], usize),
+    /// The chain's end points; its grid too once drawn (the submap is then finished).
+    submap: SlamSubmap,
+    reference: PreparedReference,
+}
+
+impl DrawnChain {
+    /// Draws the grid of the chain, once: `scans` at `poses_in_map`, the scans and poses the
+    /// chain was made of.
+    fn draw_grid(&mut self, scans: &[Scan], poses_in_map: &[Pose2]) {
+        if self.submap.is_finished() {
+            return;
+        }
+        let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
+        self.submap.reserve_for(scans_at_poses());
+        for (scan, pose) in scans_at_poses() {
+            self.submap.insert_into_grid(scan, pose);
+        }
+        self.submap.finish();
+    }
+}
+
+impl ChainCloser {
+    /// A chain closer with the SLAM's `options`.
+    pub(super) fn new(options: &SlamOptions) -> Result<Self, ScanMatchError> {
+        Ok(ChainCloser {
+            closer: LoopCloser::new(options.chain_closure.search.clone())?,
+            confirmation: ClosureConfirmation::new(options.chain_closure.search.confirmation),
+            pending_until: 0,
+            last_chain: None,
+            options: options.clone(),
+        })
+    }
+
+    /// Whether a chain closure found before `node` still waits for its confirmation.
+    pub(super) fn awaits_confirmation(&self, node: usize) -> bool {
+        node <= self.pending_until
+    }
+
+    /// Searches the scan of `node`, believed at `pose_in_map`, and returns the closures
+    /// confirmed by it (counting the search in `searches`).
+    pub(super) fn close(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        pose_in_map: Pose2,
+        context: &ChainContext<'_>,
+        searches: &mut usize,
+    ) -> Vec<FoundClosure> {
+        let Some(found) = self.search(node, scan, pose_in_map, context, searches) else {
+            return Vec::new();
+        };
+        let confirmed = self.confirmation.offer(found, context.poses_in_local);
+        if confirmed.is_empty() {
+            let window = self.options.chain_closure.search.confirmation.window_scans;
+            self.pending_until = node + window;
+        }
+        confirmed
+    }
+
+    /// Searches the scan of `node`, believed at `pose_in_map`, in the chain of earlier scans
+    /// around the one nearest to it ([`ChainClosureOptions`](super::ChainClosureOptions)), drawn at the poses the
+    /// graph holds now. The closure is in the frame of that nearest scan.
+    pub(super) fn search(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        pose_in_map: Pose2,
+        context: &ChainContext<'_>,
+        searches: &mut usize,
+    ) -> Option<FoundClosure> {
+        let chain = &self.options.chain_closure;
+        let last_chained = node.checked_sub(chain.search.min_scans_apart)?;
+        let poses = context.poses_in_map;
+        let distance_m =
+            |pose: &Pose2| (pose.x_m - pose_in_map.x_m).hypot(pose.y_m - pose_in_map.y_m);
+        let centre = (0..=last_chained)
+            .filter(|&n| n < poses.len() && n < context.scans.len())
+            .min_by(|&a, &b| distance_m(&poses[a]).total_cmp(&distance_m(&poses[b])))
+            .filter(|&n| distance_m(&poses[n]) <= chain.search.max_distance_m)?;
+        let first = centre.saturating_sub(chain.half_length_scans);
+        let last = (centre + chain.half_length_scans).min(last_chained);
+        let frame = poses[centre];
+        // Only an optimisation moves earlier scans: until then, the same chain draws the same.
+        let key = ([centre, first, last], context.optimizations);
+        if self
+            .last_chain
+            .as_ref()
+            .is_none_or(|drawn| drawn.key != key)
+        {
+            // The grid waits until a match needs it (`DrawnChain::draw_grid`).
+            let mut submap =
+                SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
+            for (chained, (scan, &pose)) in context.scans[first..=last]
+                .iter()
+                .zip(&poses[first..=last])
+                .enumerate()
+            {
+                submap.insert_points(first + chained, scan, pose);
+            }
+            let reference = self.closer.prepare(&submap.reference_scan());
+            self.last_chain = Some(DrawnChain {
+                key,
+                submap,
+                reference,
+            });
+        }
+        let drawn = self.last_chain.as_mut()?;
+        *searches += 1;
+        let guess = frame.inverse() * pose_in_map;
+        let candidate = self
+            .closer
+            .align(&drawn.submap, &drawn.reference, scan, guess)?;
+        drawn.draw_grid(&context.scans[first..=last], &poses[first..=last]);
+        let closure = self.closer.accept(&drawn.submap, &candidate)?;
+        Some(FoundClosure {
+            submap_first_node: centre,
+            node,
+            pose_in_submap: closure.pose_in_submap,
+            information_in_robot: Some(closure.information_in_robot),
+        })
+    }
+}
