@@ -144,3 +144,48 @@ fn aces_closes_its_loop_round_the_start_without_odometry() {
     assert!(revisits.mean_translation_m <= 0.10, "{revisits:?}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `bench-slam` over the whole benchmark directory, each log cut to its first scans: one row
+/// per `*.clf`, each scored on its reference, and Intel on its relations too.
+#[test]
+fn bench_slam_gives_a_row_for_every_log() {
+    let test = "bench_slam_gives_a_row_for_every_log";
+    let Some(intel) = datasets::require("benchmark/intel.clf", test) else {
+        return;
+    };
+    let dir = intel
+        .parent()
+        .expect("the benchmark directory")
+        .to_path_buf();
+    let logs = hil_sim::bench_slam::logs_in(&dir).expect("logs");
+    let options = hil_sim::bench_slam::BenchSlamOptions {
+        dir,
+        out: std::env::temp_dir().join(format!("bench-slam-{}", std::process::id())),
+        no_return_from_m: 80.0,
+        first_scans: Some(40),
+    };
+    let mut announced = Vec::new();
+    let report = hil_sim::bench_slam::bench_slam(&options, |_, _, name| {
+        announced.push(name.to_string());
+    })
+    .expect("every log runs");
+    assert_eq!(report.logs.len(), logs.len());
+    assert!(report.logs.len() >= 7, "{announced:?}");
+    for row in &report.logs {
+        assert_eq!(row.scans, 40, "{}", row.log);
+        let consecutive = row.consecutive.expect("every log has a reference");
+        assert_eq!(consecutive.relations, 39, "{}", row.log);
+        assert!(row.scans_per_second > 0.0);
+    }
+    let intel_row = report
+        .logs
+        .iter()
+        .find(|r| r.log == "intel")
+        .expect("intel");
+    assert!(intel_row.relations.is_some());
+    let json = serde_json::to_string(&report).expect("JSON");
+    assert!(json.starts_with("{\"logs\":[{\"log\":"), "{json}");
+    let table = report.table();
+    assert_eq!(table.lines().count(), report.logs.len() + 1, "{table}");
+    std::fs::remove_dir_all(&options.out).ok();
+}

@@ -1,6 +1,7 @@
 //! hil-sim: runs the firmware logic on the host against real captures and emulated sensors.
 
 pub mod bench_match;
+pub mod bench_slam;
 pub mod board;
 pub mod bringup;
 pub mod decode_nmea;

@@ -5,6 +5,7 @@
 //! run.
 
 pub mod bench_match;
+pub mod bench_slam;
 pub mod bringup;
 pub mod decode_nmea;
 pub mod decode_sick;
