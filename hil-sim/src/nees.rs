@@ -16,6 +16,7 @@
 //! runs on the same data as the reference for what the test yields on that set.
 
 use host::ekf_slam::{DifferentialDriveInput, LandmarkObservation, SubmapSlam, SubmapSlamOptions};
+use host::geometry::Pose2;
 use serde::Serialize;
 
 use crate::landmark_sim::{
@@ -198,7 +199,13 @@ fn track(data: &SimulatedRun, noise: &NoiseModel, local_map_landmarks: usize) ->
         max_landmarks_per_local_map: local_map_landmarks,
         ..SubmapSlamOptions::default()
     };
-    let start = data.initial_pose().unwrap_or([0.0; 3]);
+    let [x_m, y_m, theta_rad] = data.initial_pose().unwrap_or([0.0; 3]);
+    // The simulated pose as it is: the angle is not wrapped again.
+    let start = Pose2 {
+        x_m,
+        y_m,
+        theta_rad,
+    };
     let mut slam = SubmapSlam::new(noise.motion_model(), noise.sensor_model(), options, start);
     let mut nees = Vec::with_capacity(data.steps.len());
     let mut final_error_m = 0.0;
@@ -269,8 +276,12 @@ fn odometry_of(step: &SimStep) -> DifferentialDriveInput {
 /// The NEES of `pose` with `covariance` against the step's true pose, and the position
 /// error in metres. An exact pose (the first step, zero covariance) has no NEES; it counts
 /// as zero.
-fn score(step: &SimStep, pose: [f64; 3], covariance: &nalgebra::Matrix3<f64>) -> (f64, f64) {
-    let error = [0, 1, 2].map(|i| pose[i] - step.true_pose[i]);
+fn score(step: &SimStep, pose: Pose2, covariance: &nalgebra::Matrix3<f64>) -> (f64, f64) {
+    let error = [
+        pose.x_m - step.true_pose[0],
+        pose.y_m - step.true_pose[1],
+        pose.theta_rad - step.true_pose[2],
+    ];
     let rows = [0, 1, 2].map(|r| [0, 1, 2].map(|c| covariance[(r, c)]));
     (
         pose_nees(error, rows).unwrap_or(0.0),

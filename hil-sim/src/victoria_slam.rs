@@ -35,6 +35,7 @@ use host::ekf_slam::{
     LandmarkSlam, LandmarkSlamOptions, MapSmootherStats, RangeBearingModel, SubmapSlam,
     SubmapSlamOptions, SubmapSlamStats, TimedPose,
 };
+use host::geometry::Pose2;
 use host::georef::{
     AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
     write_geojson, write_kml,
@@ -110,7 +111,11 @@ impl VictoriaSlamOptions {
                 })
             },
             sensor: RangeBearingModel {
-                sensor_in_robot: [LASER_AHEAD_M, geometry.b_m, 0.0],
+                sensor_in_robot: Pose2 {
+                    x_m: LASER_AHEAD_M,
+                    y_m: geometry.b_m,
+                    theta_rad: 0.0,
+                },
                 sigma_range_m: 1.0,
                 sigma_bearing_rad: 3f64.to_radians(),
             },
@@ -126,8 +131,8 @@ impl VictoriaSlamOptions {
     /// Where on the car the fixes are taken: the laser, which the GPS track follows.
     fn antenna_in_robot(&self) -> [f64; 2] {
         [
-            self.sensor.sensor_in_robot[0],
-            self.sensor.sensor_in_robot[1],
+            self.sensor.sensor_in_robot.x_m,
+            self.sensor.sensor_in_robot.y_m,
         ]
     }
 }
@@ -277,7 +282,7 @@ enum Event {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct StampedPose {
     t_s: f64,
-    pose: [f64; 3],
+    pose: Pose2,
 }
 
 /// Runs the filter over the run in `options.dir` and writes the outputs.
@@ -454,8 +459,8 @@ fn position_at(trajectory: &[StampedPose], t_s: f64) -> Option<[f64; 2]> {
         0.0
     };
     Some([
-        a.pose[0] + f * (b.pose[0] - a.pose[0]),
-        a.pose[1] + f * (b.pose[1] - a.pose[1]),
+        a.pose.x_m + f * (b.pose.x_m - a.pose.x_m),
+        a.pose.y_m + f * (b.pose.y_m - a.pose.y_m),
     ])
 }
 
@@ -497,7 +502,7 @@ fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) ->
             .map(|a| a.enu_from_map)
             .unwrap_or_default()
     } else {
-        host::geometry::Pose2::IDENTITY
+        Pose2::IDENTITY
     };
     let mut distances: Vec<f64> = pairs
         .iter()
@@ -577,7 +582,11 @@ fn write_outputs(
         let path = options.out.join(name);
         let mut out = BufWriter::new(fs::File::create(&path).map_err(write_error(&path))?);
         for stamped in trajectory {
-            let [x, y, theta] = stamped.pose;
+            let Pose2 {
+                x_m: x,
+                y_m: y,
+                theta_rad: theta,
+            } = stamped.pose;
             writeln!(out, "{:.3}\t{x:.4}\t{y:.4}\t{theta:.6}", stamped.t_s)
                 .map_err(write_error(&path))?;
         }
@@ -610,7 +619,7 @@ fn write_outputs(
         let trajectory_in_enu: Vec<[f64; 2]> = run
             .trajectory
             .iter()
-            .map(|p| [p.pose[0], p.pose[1]])
+            .map(|p| [p.pose.x_m, p.pose.y_m])
             .collect();
         let landmarks: Vec<LandmarkInEnu> = global
             .landmark_info()

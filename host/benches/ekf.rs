@@ -33,7 +33,7 @@ use host::ekf_slam::{
     DifferentialDriveInput, DifferentialDriveModel, LandmarkObservation, RangeBearingModel,
     SubmapSlam, SubmapSlamOptions,
 };
-use host::geometry::wrap_angle_rad;
+use host::geometry::{Pose2, wrap_angle_rad};
 
 /// Distance between neighbouring trees along a row, metres.
 const SPACING_M: f64 = 3.0;
@@ -114,8 +114,12 @@ impl Avenue {
     }
 
     /// Where the robot starts: on the road, heading counter-clockwise.
-    fn start_pose_in_world(&self) -> [f64; 3] {
-        [self.track_radius_m, 0.0, FRAC_PI_2]
+    fn start_pose_in_world(&self) -> Pose2 {
+        Pose2 {
+            x_m: self.track_radius_m,
+            y_m: 0.0,
+            theta_rad: FRAC_PI_2,
+        }
     }
 
     /// The odometry of every step: constant speed and turn rate along the road.
@@ -133,26 +137,35 @@ impl Avenue {
     }
 
     /// The pose after one step from `pose_in_world`, moved as the filter's motion model moves
-    /// it (along the chord, at the mid-point heading), so the odometry is exact.
-    fn step(&self, pose_in_world: [f64; 3]) -> [f64; 3] {
+    /// it (along the chord, at the mid-point heading), so the odometry is exact. The heading
+    /// is not wrapped.
+    fn step(&self, pose_in_world: Pose2) -> Pose2 {
         let turn_rad = self.odometry().yaw_rate_radps * DT_S;
-        let [x, y, theta] = pose_in_world;
+        let Pose2 {
+            x_m: x,
+            y_m: y,
+            theta_rad: theta,
+        } = pose_in_world;
         let (sin, cos) = (theta + 0.5 * turn_rad).sin_cos();
-        [
-            x + self.step_m * cos,
-            y + self.step_m * sin,
-            theta + turn_rad,
-        ]
+        Pose2 {
+            x_m: x + self.step_m * cos,
+            y_m: y + self.step_m * sin,
+            theta_rad: theta + turn_rad,
+        }
     }
 
     /// The `OBSERVATIONS_PER_SCAN` nearest trees within `MAX_RANGE_M` of the robot at
     /// `pose_in_world` among those `usable` accepts, exact, with their indices.
     fn scan(
         &self,
-        pose_in_world: [f64; 3],
+        pose_in_world: Pose2,
         usable: impl Fn(usize) -> bool,
     ) -> Vec<(usize, LandmarkObservation)> {
-        let [x, y, theta] = pose_in_world;
+        let Pose2 {
+            x_m: x,
+            y_m: y,
+            theta_rad: theta,
+        } = pose_in_world;
         let mut seen: Vec<(usize, LandmarkObservation)> = self
             .landmarks_in_world
             .iter()
@@ -201,7 +214,7 @@ impl Avenue {
 /// The true run down an avenue: the robot's pose and the trees it has observed so far.
 struct Drive<'a> {
     avenue: &'a Avenue,
-    pose_in_world: [f64; 3],
+    pose_in_world: Pose2,
     observed: Vec<bool>,
 }
 
@@ -358,8 +371,8 @@ fn bench_run(c: &mut Criterion) {
             stats.observations.associated,
             stats.joins,
             stats.loop_closures,
-            (estimate_in_world[0] - truth_in_world[0])
-                .hypot(estimate_in_world[1] - truth_in_world[1])
+            (estimate_in_world.x_m - truth_in_world.x_m)
+                .hypot(estimate_in_world.y_m - truth_in_world.y_m)
         );
     }
 

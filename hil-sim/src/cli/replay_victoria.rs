@@ -82,8 +82,8 @@ pub fn run(args: ReplayVictoriaArgs) -> CliResult {
     options.datum = args.datum;
     options.sensor.sigma_range_m = args.sigma_range_m;
     options.sensor.sigma_bearing_rad = args.sigma_bearing_deg.to_radians();
-    options.sensor.sensor_in_robot[0] = args.laser_ahead_m;
-    options.sensor.sensor_in_robot[1] = args.laser_left_m;
+    options.sensor.sensor_in_robot.x_m = args.laser_ahead_m;
+    options.sensor.sensor_in_robot.y_m = args.laser_left_m;
     options.motion.sigma_speed_mps = args.sigma_speed_mps;
     options.motion.sigma_steer_rad = args.sigma_steer_deg.to_radians();
     let summary = hil_sim::victoria_slam::replay_victoria(&options)?;

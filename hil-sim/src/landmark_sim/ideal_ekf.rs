@@ -19,6 +19,7 @@ use host::ekf_slam::{
     DifferentialDriveInput, DifferentialDriveModel, EkfError, EkfState, LandmarkObservation,
     MotionModel, RangeBearingModel,
 };
+use host::geometry::Pose2;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
 use super::simulated_run::SimObservation;
@@ -50,15 +51,25 @@ pub enum IdealEkfError {
     Update(#[from] EkfError),
 }
 
+/// The filter's pose for a simulated pose `[x_m, y_m, theta_rad]` (the angle as given).
+fn filter_pose([x_m, y_m, theta_rad]: [f64; 3]) -> Pose2 {
+    Pose2 {
+        x_m,
+        y_m,
+        theta_rad,
+    }
+}
+
 impl IdealEkf {
-    /// A filter that starts exactly at `start` (zero covariance) in a world of `landmarks`.
+    /// A filter that starts exactly at the simulated pose `start` (zero covariance) in a world
+    /// of `landmarks`.
     pub fn new(
         motion: DifferentialDriveModel,
         sensor: RangeBearingModel,
         landmarks: &[Landmark],
         start: [f64; 3],
     ) -> Self {
-        let (mean, covariance) = motion.initial_robot(start);
+        let (mean, covariance) = motion.initial_robot(filter_pose(start));
         IdealEkf {
             state: EkfState::new(mean, covariance),
             motion,
@@ -95,6 +106,7 @@ impl IdealEkf {
         true_pose: [f64; 3],
     ) -> Result<(), IdealEkfError> {
         let pose = self.state.pose();
+        let true_pose = filter_pose(true_pose);
         let mut rows = Vec::new();
         let mut unmapped = Vec::new();
         for observation in observations {
@@ -159,7 +171,7 @@ impl IdealEkf {
     }
 
     /// The estimated robot pose and its covariance.
-    pub fn pose(&self) -> ([f64; 3], Matrix3<f64>) {
+    pub fn pose(&self) -> (Pose2, Matrix3<f64>) {
         (self.state.pose(), self.state.pose_covariance())
     }
 }
@@ -191,7 +203,11 @@ mod tests {
             }
             filter.observe(&step.observations, step.true_pose).unwrap();
             let (pose, covariance) = filter.pose();
-            let error = [0, 1, 2].map(|i| pose[i] - step.true_pose[i]);
+            let error = [
+                pose.x_m - step.true_pose[0],
+                pose.y_m - step.true_pose[1],
+                pose.theta_rad - step.true_pose[2],
+            ];
             if k > 0 {
                 let rows = [0, 1, 2].map(|r| [0, 1, 2].map(|c| covariance[(r, c)]));
                 sum += pose_nees(error, rows).unwrap();

@@ -8,6 +8,7 @@
 use core::f64::consts::PI;
 
 use host::ekf_slam::{DifferentialDriveModel, RangeBearingModel};
+use host::geometry::Pose2;
 use serde::{Deserialize, Serialize};
 
 /// Noise and timing of a simulated landmark run. Every field has a working default
@@ -108,7 +109,7 @@ impl NoiseModel {
     /// origin, the same standard deviations.
     pub fn sensor_model(&self) -> RangeBearingModel {
         RangeBearingModel {
-            sensor_in_robot: [0.0; 3],
+            sensor_in_robot: Pose2::IDENTITY,
             sigma_range_m: self.range_sigma_m,
             sigma_bearing_rad: self.bearing_sigma_rad,
         }

@@ -59,16 +59,13 @@ impl Estimator {
     /// The pose `[x_m, y_m, theta_rad]` of every scan the pipeline placed, as it holds them
     /// now, in the order the scans came (the EKF skips a scan whose time stamp goes back).
     pub fn trajectory(&self) -> Vec<[f64; 3]> {
+        let entries = |p: &Pose2| [p.x_m, p.y_m, p.theta_rad];
         match self {
-            Estimator::Grid(pipeline) => pipeline
-                .poses_in_map()
-                .iter()
-                .map(|p: &Pose2| [p.x_m, p.y_m, p.theta_rad])
-                .collect(),
+            Estimator::Grid(pipeline) => pipeline.poses_in_map().iter().map(entries).collect(),
             Estimator::Ekf(pipeline) => pipeline
                 .trajectory()
                 .iter()
-                .map(|p| p.pose_in_map)
+                .map(|p| entries(&p.pose_in_map))
                 .collect(),
         }
     }

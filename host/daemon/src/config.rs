@@ -8,6 +8,7 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use host::ekf_slam::EkfPipelineOptions;
+use host::geometry::Pose2;
 use host::georef::{GeoReferencer, GeoReferencerOptions};
 use host::slam::{GridPipelineOptions, SlamOptions};
 use serde::{Deserialize, Serialize};
@@ -147,8 +148,14 @@ impl SlamConfig {
     /// The EKF pipeline's options (method 1), with the local metric frame at
     /// `datum_lat_lon_deg` when given, else at the first fix.
     pub fn ekf_pipeline_options(&self, datum_lat_lon_deg: Option<[f64; 2]>) -> EkfPipelineOptions {
+        let [x_m, y_m, theta_rad] = self.laser_in_robot;
         EkfPipelineOptions {
-            laser_in_robot: self.laser_in_robot,
+            // As written in the configuration: the angle is not wrapped.
+            laser_in_robot: Pose2 {
+                x_m,
+                y_m,
+                theta_rad,
+            },
             antenna_in_robot: self.antenna_in_robot,
             max_range_m: self.ekf_max_range_m,
             landmarks_per_local_map: self.ekf_landmarks_per_local_map,

@@ -12,6 +12,7 @@ use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 use crate::runner::RunOutcome;
 use crate::web::render_map_png;
 use host::geoimage::GeoImage;
+use host::geometry::Pose2;
 use host::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
 use host::grid::{MapExport, MapExportOptions};
 
@@ -74,7 +75,7 @@ pub fn write_outputs(
         written.files.push(dir.join("map.pgm"));
         written.files.push(yaml);
     } else if let Some(ekf) = &outcome.ekf {
-        let points: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1[0], r.1[1]]).collect();
+        let points: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1.x_m, r.1.y_m]).collect();
         let png = render_map_png(&points, &ekf.landmarks_in_map(), MAP_DRAWING_SIDE_PX)
             .map_err(|e| output_error(&path)(e.to_string()))?;
         fs::write(&path, png).map_err(|e| output_error(&path)(e.to_string()))?;
@@ -84,7 +85,7 @@ pub fn write_outputs(
     if let Some(ekf) = outcome.ekf.as_ref().filter(|e| e.is_geo_referenced())
         && let Some(frame) = ekf.frame()
     {
-        let track: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1[0], r.1[1]]).collect();
+        let track: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1.x_m, r.1.y_m]).collect();
         let landmarks: Vec<LandmarkInEnu> = ekf
             .landmarks_in_map()
             .into_iter()
@@ -136,8 +137,8 @@ pub fn write_outputs(
     Ok(written)
 }
 
-/// `(host_time_s, [x_m, y_m, theta_rad])` per scan from the pipeline that owns the pose.
-fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, [f64; 3])> {
+/// `(host_time_s, pose_in_map)` per scan from the pipeline that owns the pose.
+fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, Pose2)> {
     if let Some(ekf) = &outcome.ekf {
         return ekf
             .trajectory()
@@ -145,19 +146,17 @@ fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, [f64; 3])> {
             .map(|p| (p.time_s, p.pose_in_map))
             .collect();
     }
-    outcome.grid.as_ref().map_or_else(Vec::new, |grid| {
-        grid.trajectory()
-            .into_iter()
-            .map(|(t, p)| (t, [p.x_m, p.y_m, p.theta_rad]))
-            .collect()
-    })
+    outcome
+        .grid
+        .as_ref()
+        .map_or_else(Vec::new, |grid| grid.trajectory())
 }
 
-fn write_trajectory(path: &Path, rows: &[(f64, [f64; 3])]) -> io::Result<()> {
+fn write_trajectory(path: &Path, rows: &[(f64, Pose2)]) -> io::Result<()> {
     let mut w = BufWriter::new(File::create(path)?);
     writeln!(w, "# host_time_s\tx_m\ty_m\ttheta_rad")?;
     for (t, p) in rows {
-        writeln!(w, "{t:.6}\t{:.4}\t{:.4}\t{:.5}", p[0], p[1], p[2])?;
+        writeln!(w, "{t:.6}\t{:.4}\t{:.4}\t{:.5}", p.x_m, p.y_m, p.theta_rad)?;
     }
     w.flush()
 }

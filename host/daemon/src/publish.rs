@@ -20,11 +20,11 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
     let (pose, covariance) = ekf.pose();
     let frame = ekf.frame().filter(|_| ekf.is_geo_referenced());
     let lon_lat = |xy: [f64; 2]| frame.and_then(|f| f.to_lon_lat_deg(xy).ok());
-    let pose_lon_lat = lon_lat([pose[0], pose[1]]);
+    let pose_lon_lat = lon_lat([pose.x_m, pose.y_m]);
     state.pose = PoseView {
-        x_m: pose[0],
-        y_m: pose[1],
-        theta_rad: pose[2],
+        x_m: pose.x_m,
+        y_m: pose.y_m,
+        theta_rad: pose.theta_rad,
         lat_deg: pose_lon_lat.map(|p| p[1]),
         lon_deg: pose_lon_lat.map(|p| p[0]),
         position_cov_m2: [covariance[(0, 0)], covariance[(0, 1)], covariance[(1, 1)]],
@@ -33,7 +33,7 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
     let trajectory = thinned(&ekf.trajectory(), MAX_SHOWN_TRAJECTORY_POINTS);
     state.trajectory_m = trajectory
         .iter()
-        .map(|p| [p.pose_in_map[0], p.pose_in_map[1]])
+        .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
         .collect();
     state.trajectory_wgs84 = state
         .trajectory_m
@@ -53,7 +53,7 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
     // Once aligned, the EKF's map frame is the `enu` frame itself.
     state.enu_from_map = frame.map(|_| Pose2::IDENTITY);
     state.pixel_from_map = match (frame, image) {
-        (Some(frame), Some(image)) => pixel_from_map(frame, image, [pose[0], pose[1]]),
+        (Some(frame), Some(image)) => pixel_from_map(frame, image, [pose.x_m, pose.y_m]),
         _ => None,
     };
 }

@@ -13,6 +13,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::motion_model::{MotionModel, MotionPrediction, midpoint_step};
+use crate::geometry::Pose2;
 
 /// Rear-wheel speed and steering angle over one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -94,10 +95,11 @@ impl MotionModel for AckermannModel {
         if self.calibrate { 5 } else { 3 }
     }
 
-    fn initial_robot(&self, pose: [f64; 3]) -> (DVector<f64>, DMatrix<f64>) {
+    fn initial_robot(&self, pose: Pose2) -> (DVector<f64>, DMatrix<f64>) {
         let dim = self.robot_dim();
         let mut mean = DVector::zeros(dim);
-        mean.rows_mut(0, 3).copy_from_slice(&pose);
+        mean.rows_mut(0, 3)
+            .copy_from_slice(&[pose.x_m, pose.y_m, pose.theta_rad]);
         let mut covariance = DMatrix::zeros(dim, dim);
         if self.calibrate {
             mean[3] = 1.0;
@@ -116,7 +118,11 @@ impl MotionModel for AckermannModel {
         };
         let [v, omega, dv_dwheel, domega_dwheel, dv_dsteer, domega_dsteer] =
             self.kinematics(input.wheel_speed_mps, scale, input.steer_rad + offset);
-        let pose = [robot[0], robot[1], robot[2]];
+        let pose = Pose2 {
+            x_m: robot[0],
+            y_m: robot[1],
+            theta_rad: robot[2],
+        };
         let (next, d) = midpoint_step(pose, v, omega, dt_s);
         // Derivative of the new pose (row) through speed and turn rate.
         let through = |row: usize, dv: f64, domega: f64| d[row][1] * dv + d[row][2] * domega;
@@ -149,7 +155,9 @@ impl MotionModel for AckermannModel {
         ]));
         let mut q = &g * noise * g.transpose();
         let mut next_robot = DVector::zeros(dim);
-        next_robot.rows_mut(0, 3).copy_from_slice(&next);
+        next_robot
+            .rows_mut(0, 3)
+            .copy_from_slice(&[next.x_m, next.y_m, next.theta_rad]);
         if self.calibrate {
             next_robot[3] = scale;
             next_robot[4] = offset;
@@ -178,7 +186,7 @@ mod tests {
     #[test]
     fn straight_drive_moves_forward() {
         let model = model();
-        let (robot, _) = model.initial_robot([0.0, 0.0, 0.0]);
+        let (robot, _) = model.initial_robot(Pose2::IDENTITY);
         let input = AckermannInput {
             wheel_speed_mps: 2.0,
             steer_rad: 0.0,
@@ -217,7 +225,7 @@ mod tests {
     #[test]
     fn turning_left_increases_heading() {
         let model = model();
-        let (robot, _) = model.initial_robot([0.0, 0.0, 0.0]);
+        let (robot, _) = model.initial_robot(Pose2::IDENTITY);
         let input = AckermannInput {
             wheel_speed_mps: 2.0,
             steer_rad: 0.1,

@@ -4,6 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::motion_model::{MotionModel, MotionPrediction, midpoint_step};
+use crate::geometry::Pose2;
 
 /// Robot block `[x_m, y_m, theta_rad, speed_mps, yaw_rate_radps]` moved at constant velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,8 +38,8 @@ impl MotionModel for ConstantVelocityModel {
         5
     }
 
-    fn initial_robot(&self, pose: [f64; 3]) -> (DVector<f64>, DMatrix<f64>) {
-        let mean = DVector::from_vec(vec![pose[0], pose[1], pose[2], 0.0, 0.0]);
+    fn initial_robot(&self, pose: Pose2) -> (DVector<f64>, DMatrix<f64>) {
+        let mean = DVector::from_vec(vec![pose.x_m, pose.y_m, pose.theta_rad, 0.0, 0.0]);
         let mut covariance = DMatrix::zeros(5, 5);
         covariance[(3, 3)] = self.initial_sigma_speed_mps.powi(2);
         covariance[(4, 4)] = self.initial_sigma_yaw_rate_radps.powi(2);
@@ -46,7 +47,11 @@ impl MotionModel for ConstantVelocityModel {
     }
 
     fn predict(&self, robot: &DVector<f64>, _input: &(), dt_s: f64) -> MotionPrediction {
-        let pose = [robot[0], robot[1], robot[2]];
+        let pose = Pose2 {
+            x_m: robot[0],
+            y_m: robot[1],
+            theta_rad: robot[2],
+        };
         let (speed, yaw_rate) = (robot[3], robot[4]);
         let (next, d) = midpoint_step(pose, speed, yaw_rate, dt_s);
         let mut f = DMatrix::identity(5, 5);
@@ -59,7 +64,7 @@ impl MotionModel for ConstantVelocityModel {
         q[(3, 3)] = self.sigma_acceleration_mps2.powi(2) * dt_s;
         q[(4, 4)] = self.sigma_yaw_acceleration_radps2.powi(2) * dt_s;
         MotionPrediction {
-            robot: DVector::from_vec(vec![next[0], next[1], next[2], speed, yaw_rate]),
+            robot: DVector::from_vec(vec![next.x_m, next.y_m, next.theta_rad, speed, yaw_rate]),
             f,
             q,
         }

@@ -54,7 +54,7 @@ type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
 
 use super::landmark_info::LandmarkInfo;
 use super::submap_slam::MappedLandmark;
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Side of the cells of the spatial hash of old landmarks, metres.
 const CELL_SIZE_M: f64 = 4.0;
@@ -119,9 +119,9 @@ impl Default for ConstellationOptions {
 /// Where a set of local landmarks lies in the indexed old map.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaceMatch {
-    /// `[x_m, y_m, theta_rad]` moving the local landmarks, as given, onto the old ones:
+    /// The transform moving the local landmarks, as given, onto the old ones:
     /// `position_in_old = old_from_local ⊕ position_in_local`.
-    pub old_from_local: [f64; 3],
+    pub old_from_local: Pose2,
     /// Number of inliers, `pairs.len()`.
     pub inliers: usize,
     /// MSAC score: the sum over inliers of `1 − (d / inlier_distance_m)²`, `d` the distance
@@ -173,7 +173,7 @@ struct LocalPoint {
 struct Vote {
     count: usize,
     /// Hypothesis from the longest local pair that voted here (the best determined angle).
-    old_from_local: [f64; 3],
+    old_from_local: Pose2,
     pair_length_m: f64,
 }
 
@@ -370,7 +370,7 @@ impl Constellation {
                             .transform_onto(to_first.position_in_map, to_second.position_in_map);
                         let landed = transform(old_from_local, centroid);
                         let key = (
-                            (old_from_local[2] / VOTE_ANGLE_BIN_RAD).round() as i64,
+                            (old_from_local.theta_rad / VOTE_ANGLE_BIN_RAD).round() as i64,
                             (landed[0] / position_bin_m).floor() as i64,
                             (landed[1] / position_bin_m).floor() as i64,
                         );
@@ -462,7 +462,7 @@ impl Constellation {
     fn associate(
         &self,
         local: &[LocalPoint],
-        old_from_local: [f64; 3],
+        old_from_local: Pose2,
         gate_m: f64,
     ) -> Vec<(usize, usize, f64)> {
         let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
@@ -491,7 +491,7 @@ impl Constellation {
 
     /// Least-squares rigid transform moving the paired local landmarks onto the old ones
     /// (closed-form 2D Procrustes); `None` if it is not determined.
-    fn fit(&self, local: &[LocalPoint], pairs: &[(usize, usize, f64)]) -> Option<[f64; 3]> {
+    fn fit(&self, local: &[LocalPoint], pairs: &[(usize, usize, f64)]) -> Option<Pose2> {
         let mut from = Vec::with_capacity(pairs.len());
         let mut to = Vec::with_capacity(pairs.len());
         for &(k, old, _) in pairs {
@@ -653,12 +653,13 @@ impl Constellation {
     }
 }
 
-/// `a_from_b ⊕ point_in_b`.
-pub(crate) fn transform(a_from_b: [f64; 3], point_in_b: [f64; 2]) -> [f64; 2] {
-    let (sin, cos) = a_from_b[2].sin_cos();
+/// `a_from_b ⊕ point_in_b`, summed as [`super::frames::transform_point`] sums it, without the
+/// Jacobians.
+pub(crate) fn transform(a_from_b: Pose2, point_in_b: [f64; 2]) -> [f64; 2] {
+    let (sin, cos) = a_from_b.theta_rad.sin_cos();
     [
-        a_from_b[0] + cos * point_in_b[0] - sin * point_in_b[1],
-        a_from_b[1] + sin * point_in_b[0] + cos * point_in_b[1],
+        a_from_b.x_m + cos * point_in_b[0] - sin * point_in_b[1],
+        a_from_b.y_m + sin * point_in_b[0] + cos * point_in_b[1],
     ]
 }
 
@@ -694,19 +695,31 @@ impl PairFrame {
         }
     }
 
-    /// The rigid transform `[x_m, y_m, theta_rad]` taking this pair onto `(first, second)`:
-    /// its direction onto theirs, its midpoint onto theirs.
-    fn transform_onto(&self, first: [f64; 2], second: [f64; 2]) -> [f64; 3] {
+    /// The rigid transform taking this pair onto `(first, second)`: its direction onto
+    /// theirs, its midpoint onto theirs.
+    fn transform_onto(&self, first: [f64; 2], second: [f64; 2]) -> Pose2 {
         let to = PairFrame::new(first, second);
         let theta_rad = wrap_angle_rad(to.angle_rad - self.angle_rad);
-        let rotated = transform([0.0, 0.0, theta_rad], self.mid);
-        [to.mid[0] - rotated[0], to.mid[1] - rotated[1], theta_rad]
+        let rotated = transform(rotation(theta_rad), self.mid);
+        Pose2 {
+            x_m: to.mid[0] - rotated[0],
+            y_m: to.mid[1] - rotated[1],
+            theta_rad,
+        }
+    }
+}
+
+/// The rotation by `theta_rad` about the origin (the angle as given, not wrapped).
+fn rotation(theta_rad: f64) -> Pose2 {
+    Pose2 {
+        theta_rad,
+        ..Pose2::IDENTITY
     }
 }
 
 /// Least-squares rigid transform moving `from[i]` onto `to[i]` (2D Procrustes, equal weights);
 /// `None` for fewer than two points or coincident ones.
-pub(crate) fn fit_rigid(from: &[[f64; 2]], to: &[[f64; 2]]) -> Option<[f64; 3]> {
+pub(crate) fn fit_rigid(from: &[[f64; 2]], to: &[[f64; 2]]) -> Option<Pose2> {
     if from.len() != to.len() || from.len() < 2 {
         return None;
     }
@@ -723,16 +736,16 @@ pub(crate) fn fit_rigid(from: &[[f64; 2]], to: &[[f64; 2]]) -> Option<[f64; 3]> 
         return None;
     }
     let theta_rad = cross.atan2(dot);
-    let rotated = transform([0.0, 0.0, theta_rad], from_centroid);
-    Some([
-        to_centroid[0] - rotated[0],
-        to_centroid[1] - rotated[1],
+    let rotated = transform(rotation(theta_rad), from_centroid);
+    Some(Pose2 {
+        x_m: to_centroid[0] - rotated[0],
+        y_m: to_centroid[1] - rotated[1],
         theta_rad,
-    ])
+    })
 }
 
 /// Largest distance between where `a` and `b` put any of the local landmarks, metres.
-fn max_displacement_m(local: &[LocalPoint], a: [f64; 3], b: [f64; 3]) -> f64 {
+fn max_displacement_m(local: &[LocalPoint], a: Pose2, b: Pose2) -> f64 {
     local
         .iter()
         .map(|point| {
@@ -767,7 +780,7 @@ mod tests {
     use nalgebra::Matrix2;
 
     use super::*;
-    use crate::ekf_slam::frames::{compose_pose, invert_pose};
+    use crate::ekf_slam::frames::compose_pose;
 
     /// Fourteen hand-placed trunks: position (m) and diameter (m).
     const TREES: [([f64; 2], f64); 14] = [
@@ -795,8 +808,17 @@ mod tests {
         }
     }
 
+    /// A pose, the angle as given (not wrapped).
+    fn pose(x_m: f64, y_m: f64, theta_rad: f64) -> Pose2 {
+        Pose2 {
+            x_m,
+            y_m,
+            theta_rad,
+        }
+    }
+
     /// The trees moved by `map_from_true`.
-    fn park(map_from_true: [f64; 3]) -> Vec<MappedLandmark> {
+    fn park(map_from_true: Pose2) -> Vec<MappedLandmark> {
         TREES
             .iter()
             .map(|&(p, d)| mapped(transform(map_from_true, p), d))
@@ -804,18 +826,22 @@ mod tests {
     }
 
     /// Trees 2 to 11 as a local map drifted by `estimated_from_true`.
-    fn local(estimated_from_true: [f64; 3]) -> Vec<MappedLandmark> {
+    fn local(estimated_from_true: Pose2) -> Vec<MappedLandmark> {
         park(estimated_from_true)[2..12].to_vec()
     }
 
-    fn assert_pose_close(a: [f64; 3], b: [f64; 3], tolerance: f64) {
-        let error = [a[0] - b[0], a[1] - b[1], wrap_angle_rad(a[2] - b[2])];
+    fn assert_pose_close(a: Pose2, b: Pose2, tolerance: f64) {
+        let error = [
+            a.x_m - b.x_m,
+            a.y_m - b.y_m,
+            wrap_angle_rad(a.theta_rad - b.theta_rad),
+        ];
         assert!(error.iter().all(|e| e.abs() < tolerance), "{a:?} != {b:?}");
     }
 
     #[test]
     fn test_fit_rigid_recovers_the_transform() {
-        let truth = [3.0, -2.0, 2.5];
+        let truth = pose(3.0, -2.0, 2.5);
         let from: Vec<[f64; 2]> = TREES.iter().map(|&(p, _)| p).collect();
         let to: Vec<[f64; 2]> = from.iter().map(|&p| transform(truth, p)).collect();
         let found = fit_rigid(&from, &to).expect("determined");
@@ -828,13 +854,13 @@ mod tests {
     #[test]
     fn test_finds_exact_place() {
         let mut constellation = Constellation::new(ConstellationOptions::default());
-        let global = park([0.0; 3]);
+        let global = park(Pose2::IDENTITY);
         let all: Vec<usize> = (0..global.len()).collect();
         constellation.sync(&global, &all);
         assert_eq!(constellation.len(), 14);
-        let drift = [5.0, -3.0, 0.4];
+        let drift = pose(5.0, -3.0, 0.4);
         let place = constellation.find_place(&local(drift)).expect("recognised");
-        assert_pose_close(place.old_from_local, invert_pose(drift), 1e-9);
+        assert_pose_close(place.old_from_local, drift.inverse(), 1e-9);
         let expected: Vec<(usize, usize)> = (0..10).map(|k| (k, k + 2)).collect();
         assert_eq!(place.pairs, expected);
         assert!(place.rms_residual_m < 1e-9 && (place.score - 10.0).abs() < 1e-9);
@@ -844,24 +870,24 @@ mod tests {
     fn test_sync_follows_moves_and_removals() {
         let mut constellation = Constellation::new(ConstellationOptions::default());
         let all: Vec<usize> = (0..TREES.len()).collect();
-        constellation.sync(&park([0.0; 3]), &all);
+        constellation.sync(&park(Pose2::IDENTITY), &all);
         // A small shift keeps the index; a large correction re-indexes every landmark.
-        constellation.sync(&park([0.05, 0.0, 0.0]), &all);
+        constellation.sync(&park(pose(0.05, 0.0, 0.0)), &all);
         assert_eq!(constellation.dropped_since_rebuild, 0);
-        let map_from_true = [-20.0, 35.0, -1.0];
+        let map_from_true = pose(-20.0, 35.0, -1.0);
         constellation.sync(&park(map_from_true), &all);
         assert_eq!(constellation.len(), 14);
         // Every landmark re-indexed; the old pairs stay, stale, until a rebuild.
         assert_eq!(constellation.dropped_since_rebuild, 14);
         // Moving them back makes the stale pairs the majority: the index is rebuilt.
-        constellation.sync(&park([0.0; 3]), &all);
+        constellation.sync(&park(Pose2::IDENTITY), &all);
         assert_eq!(constellation.dropped_since_rebuild, 0);
         constellation.sync(&park(map_from_true), &all);
-        let drift = [1.0, 2.0, 0.1];
+        let drift = pose(1.0, 2.0, 0.1);
         let place = constellation
             .find_place(&local(drift))
             .expect("recognised after the correction");
-        let (expected, _, _) = compose_pose(map_from_true, invert_pose(drift));
+        let (expected, _, _) = compose_pose(map_from_true, drift.inverse());
         assert_pose_close(place.old_from_local, expected, 1e-9);
         // Only the first seven remain old: the best hypothesis pairs trees 2 to 6, and no
         // hypothesis pairs a dropped landmark.
@@ -885,11 +911,11 @@ mod tests {
     #[test]
     fn test_diameters_veto_pairs() {
         let mut constellation = Constellation::new(ConstellationOptions::default());
-        let global = park([0.0; 3]);
+        let global = park(Pose2::IDENTITY);
         let all: Vec<usize> = (0..global.len()).collect();
         constellation.sync(&global, &all);
         // The same layout with trunks four times as thick matches nothing.
-        let thick: Vec<MappedLandmark> = local([0.0; 3])
+        let thick: Vec<MappedLandmark> = local(Pose2::IDENTITY)
             .into_iter()
             .map(|mut landmark| {
                 landmark.info.diameter_m = landmark.info.diameter_m.map(|d| 4.0 * d);
@@ -903,8 +929,8 @@ mod tests {
     fn test_tiny_and_invalid_inputs() {
         let mut constellation = Constellation::new(ConstellationOptions::default());
         assert_eq!(constellation.find_place(&[]), None);
-        assert_eq!(constellation.find_place(&local([0.0; 3])), None);
-        let global = park([0.0; 3]);
+        assert_eq!(constellation.find_place(&local(Pose2::IDENTITY)), None);
+        let global = park(Pose2::IDENTITY);
         constellation.sync(&global, &[0, 0, 3, 99, usize::MAX]);
         assert_eq!(constellation.len(), 2);
         let nan = [mapped([f64::NAN, 0.0], 0.3), mapped([1.0, 1.0], 0.3)];

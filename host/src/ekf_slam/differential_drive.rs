@@ -3,6 +3,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::motion_model::{MotionModel, MotionPrediction, midpoint_step};
+use crate::geometry::Pose2;
 
 /// Forward speed and turn rate measured by wheel odometry over one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -49,8 +50,11 @@ impl MotionModel for DifferentialDriveModel {
         3
     }
 
-    fn initial_robot(&self, pose: [f64; 3]) -> (DVector<f64>, DMatrix<f64>) {
-        (DVector::from_row_slice(&pose), DMatrix::zeros(3, 3))
+    fn initial_robot(&self, pose: Pose2) -> (DVector<f64>, DMatrix<f64>) {
+        (
+            DVector::from_row_slice(&[pose.x_m, pose.y_m, pose.theta_rad]),
+            DMatrix::zeros(3, 3),
+        )
     }
 
     fn predict(
@@ -59,7 +63,11 @@ impl MotionModel for DifferentialDriveModel {
         input: &DifferentialDriveInput,
         dt_s: f64,
     ) -> MotionPrediction {
-        let pose = [robot[0], robot[1], robot[2]];
+        let pose = Pose2 {
+            x_m: robot[0],
+            y_m: robot[1],
+            theta_rad: robot[2],
+        };
         let (next, d) = midpoint_step(pose, input.speed_mps, input.yaw_rate_radps, dt_s);
         let mut f = DMatrix::identity(3, 3);
         let mut g = DMatrix::zeros(3, 2);
@@ -80,7 +88,7 @@ impl MotionModel for DifferentialDriveModel {
         q[(0, 0)] += slip;
         q[(1, 1)] += slip;
         MotionPrediction {
-            robot: DVector::from_row_slice(&next),
+            robot: DVector::from_row_slice(&[next.x_m, next.y_m, next.theta_rad]),
             q,
             f,
         }

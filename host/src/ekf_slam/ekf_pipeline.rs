@@ -12,6 +12,7 @@ use super::{
     ConstantVelocityModel, LandmarkObservation, LandmarkSlam, LandmarkSlamOptions,
     RangeBearingModel, SubmapSlamOptions,
 };
+use crate::geometry::Pose2;
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
 use crate::landmarks::{FeatureKind, FrontEndOptions, extract_features};
 use crate::link::SensorEvent;
@@ -25,15 +26,15 @@ const MAX_PREDICT_S: f64 = 0.5;
 pub struct StampedPose {
     /// Host time, seconds.
     pub time_s: f64,
-    /// Robot pose in the map frame, `[x_m, y_m, theta_rad]`.
-    pub pose_in_map: [f64; 3],
+    /// Robot pose in the map frame.
+    pub pose_in_map: Pose2,
 }
 
 /// How the pipeline runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EkfPipelineOptions {
-    /// The laser's pose on the robot, `[x_m, y_m, theta_rad]` (x forward, y left).
-    pub laser_in_robot: [f64; 3],
+    /// The laser's pose on the robot (x forward, y left).
+    pub laser_in_robot: Pose2,
     /// The GPS antenna's position on the robot, `[x_m, y_m]`.
     pub antenna_in_robot: [f64; 2],
     /// Laser returns are used up to this range, metres.
@@ -47,7 +48,7 @@ pub struct EkfPipelineOptions {
 impl Default for EkfPipelineOptions {
     fn default() -> Self {
         EkfPipelineOptions {
-            laser_in_robot: [0.0; 3],
+            laser_in_robot: Pose2::IDENTITY,
             antenna_in_robot: [0.0; 2],
             max_range_m: 40.0,
             landmarks_per_local_map: 30,
@@ -191,7 +192,7 @@ impl EkfPipeline {
     }
 
     /// The robot's pose in the map frame and its covariance.
-    pub fn pose(&self) -> ([f64; 3], Matrix3<f64>) {
+    pub fn pose(&self) -> (Pose2, Matrix3<f64>) {
         self.method.pose()
     }
 

@@ -12,7 +12,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
 
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Index of the heading in the state vector.
 const THETA: usize = 2;
@@ -121,9 +121,13 @@ impl EkfState {
         &self.covariance
     }
 
-    /// The robot pose `[x_m, y_m, theta_rad]` in the filter's frame.
-    pub fn pose(&self) -> [f64; 3] {
-        [self.mean[0], self.mean[1], self.mean[2]]
+    /// The robot pose (state entries 0..3) in the filter's frame.
+    pub fn pose(&self) -> Pose2 {
+        Pose2 {
+            x_m: self.mean[0],
+            y_m: self.mean[1],
+            theta_rad: self.mean[2],
+        }
     }
 
     /// The robot's motion-model entries (the whole robot block).
@@ -311,14 +315,16 @@ impl EkfState {
 
     /// Re-expresses three entries holding a pose (`offset..offset + 3`) through
     /// `new_from_old`: the mean is composed, the covariance rotated.
-    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: [f64; 3]) {
-        let old = [
-            self.mean[offset],
-            self.mean[offset + 1],
-            self.mean[offset + 2],
-        ];
+    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: Pose2) {
+        let old = Pose2 {
+            x_m: self.mean[offset],
+            y_m: self.mean[offset + 1],
+            theta_rad: self.mean[offset + 2],
+        };
         let (new, _, rotation) = super::frames::compose_pose(new_from_old, old);
-        self.mean.rows_mut(offset, 3).copy_from_slice(&new);
+        self.mean
+            .rows_mut(offset, 3)
+            .copy_from_slice(&[new.x_m, new.y_m, new.theta_rad]);
         let n = self.dim();
         let rows = rotation * self.covariance.view((offset, 0), (3, n));
         self.covariance
@@ -342,7 +348,7 @@ impl EkfState {
     /// positive definite (nothing to regress on); the state is then unchanged.
     pub(crate) fn set_pose_marginal(
         &mut self,
-        pose: [f64; 3],
+        pose: Pose2,
         pose_covariance: &Matrix3<f64>,
     ) -> Result<(), EkfError> {
         let n = self.dim();
@@ -353,9 +359,9 @@ impl EkfState {
         // Gᵀ = P_b⁻¹ P_{b·} (3 × n).
         let g_t = cholesky.solve(&self.covariance.rows(0, 3).into_owned());
         let mut delta = nalgebra::Vector3::new(
-            pose[0] - self.mean[0],
-            pose[1] - self.mean[1],
-            pose[2] - self.mean[2],
+            pose.x_m - self.mean[0],
+            pose.y_m - self.mean[1],
+            pose.theta_rad - self.mean[2],
         );
         delta[2] = wrap_angle_rad(delta[2]);
         self.mean.gemv_tr(1.0, &g_t, &delta, 1.0);
@@ -627,7 +633,7 @@ mod tests {
         state
             .update(&DVector::from_element(1, 0.5), &h, &r)
             .unwrap();
-        assert!((state.pose()[0] - 1.25).abs() < 1e-12);
+        assert!((state.pose().x_m - 1.25).abs() < 1e-12);
         assert!((state.covariance()[(0, 0)] - 0.05).abs() < 1e-12);
     }
 
@@ -742,7 +748,14 @@ mod tests {
         let own = DMatrix::from_fn(5, 5, |r, c| if r == c { 2.0 } else { 0.1 });
         state.replace_pose_and_append(&new, &cross, &own);
         assert_eq!(state.landmark_count(), 5);
-        assert_eq!(state.pose(), [10.0, 11.0, 0.2]);
+        assert_eq!(
+            state.pose(),
+            Pose2 {
+                x_m: 10.0,
+                y_m: 11.0,
+                theta_rad: 0.2
+            }
+        );
         assert_eq!(state.landmark(4), [12.0, 13.0]);
         assert_eq!(state.landmark(1), before.landmark(1));
         let p = state.covariance();
@@ -763,8 +776,9 @@ mod tests {
         let h = DMatrix::from_fn(3, reference.dim(), |r, c| if r == c { 1.0 } else { 0.0 });
         let r = DMatrix::from_diagonal(&DVector::from_vec(vec![0.2, 0.3, 0.05]));
         let innovation = DVector::from_vec(vec![0.4, -0.3, 0.1]);
+        let pose = reference.pose();
         let mut pose_only = EkfState::new(
-            DVector::from_row_slice(&reference.pose()),
+            DVector::from_row_slice(&[pose.x_m, pose.y_m, pose.theta_rad]),
             DMatrix::from_column_slice(3, 3, reference.pose_covariance().as_slice()),
         );
         pose_only
@@ -780,7 +794,13 @@ mod tests {
         // An exactly known pose has nothing to regress on.
         let mut exact = EkfState::new(DVector::zeros(3), DMatrix::zeros(3, 3));
         assert_eq!(
-            exact.set_pose_marginal([1.0, 0.0, 0.0], &Matrix3::identity()),
+            exact.set_pose_marginal(
+                Pose2 {
+                    x_m: 1.0,
+                    ..Pose2::IDENTITY
+                },
+                &Matrix3::identity()
+            ),
             Err(EkfError::CovarianceNotPositiveDefinite)
         );
     }

@@ -1,27 +1,34 @@
 //! Pose composition with its Jacobians: the building block of the motion and observation
 //! models and of map joining.
 //!
-//! A pose is `[x_m, y_m, theta_rad]`, read as `a_from_b` (see [`crate::geometry::Pose2`]):
-//! composing `a_from_b ⊕ b_from_c` gives `a_from_c`, and `a_from_b ⊕ point_in_b` gives
-//! `point_in_a`. The Jacobians are those of Smith, Self and Cheeseman's compounding operator.
+//! A pose is a [`Pose2`], read as `a_from_b`: composing `a_from_b ⊕ b_from_c` gives
+//! `a_from_c`, and `a_from_b ⊕ point_in_b` gives `point_in_a`. The Jacobians are those of
+//! Smith, Self and Cheeseman's compounding operator, with respect to (`x_m`, `y_m`,
+//! `theta_rad`) in that order.
+//!
+//! The filter's results depend on the exact floating-point expressions here (the translation
+//! first, then the rotated terms; the angle wrapped once), which are not the order of
+//! [`Pose2::transform_point`] and [`Pose2::compose`]. The inverse is [`Pose2::inverse`], whose
+//! expressions are the ones the filter has always used.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3};
 
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// `a_from_c = a_from_b ⊕ b_from_c`, with the Jacobians with respect to `a_from_b` and to
 /// `b_from_c`.
-pub fn compose_pose(
-    a_from_b: [f64; 3],
-    b_from_c: [f64; 3],
-) -> ([f64; 3], Matrix3<f64>, Matrix3<f64>) {
-    let (sin, cos) = a_from_b[2].sin_cos();
-    let [x, y, theta] = b_from_c;
-    let a_from_c = [
-        a_from_b[0] + cos * x - sin * y,
-        a_from_b[1] + sin * x + cos * y,
-        wrap_angle_rad(a_from_b[2] + theta),
-    ];
+pub fn compose_pose(a_from_b: Pose2, b_from_c: Pose2) -> (Pose2, Matrix3<f64>, Matrix3<f64>) {
+    let (sin, cos) = a_from_b.theta_rad.sin_cos();
+    let Pose2 {
+        x_m: x,
+        y_m: y,
+        theta_rad: theta,
+    } = b_from_c;
+    let a_from_c = Pose2 {
+        x_m: a_from_b.x_m + cos * x - sin * y,
+        y_m: a_from_b.y_m + sin * x + cos * y,
+        theta_rad: wrap_angle_rad(a_from_b.theta_rad + theta),
+    };
     #[rustfmt::skip]
     let d_a = Matrix3::new(
         1.0, 0.0, -sin * x - cos * y,
@@ -40,14 +47,14 @@ pub fn compose_pose(
 /// `point_in_a = a_from_b ⊕ point_in_b`, with the Jacobians with respect to `a_from_b`
 /// (2 × 3) and to `point_in_b` (2 × 2, the rotation).
 pub fn transform_point(
-    a_from_b: [f64; 3],
+    a_from_b: Pose2,
     point_in_b: [f64; 2],
 ) -> ([f64; 2], Matrix2x3<f64>, Matrix2<f64>) {
-    let (sin, cos) = a_from_b[2].sin_cos();
+    let (sin, cos) = a_from_b.theta_rad.sin_cos();
     let [x, y] = point_in_b;
     let point_in_a = [
-        a_from_b[0] + cos * x - sin * y,
-        a_from_b[1] + sin * x + cos * y,
+        a_from_b.x_m + cos * x - sin * y,
+        a_from_b.y_m + sin * x + cos * y,
     ];
     #[rustfmt::skip]
     let d_pose = Matrix2x3::new(
@@ -56,16 +63,6 @@ pub fn transform_point(
     );
     let d_point = Matrix2::new(cos, -sin, sin, cos);
     (point_in_a, d_pose, d_point)
-}
-
-/// `b_from_a` for `a_from_b`.
-pub fn invert_pose(a_from_b: [f64; 3]) -> [f64; 3] {
-    let (sin, cos) = a_from_b[2].sin_cos();
-    [
-        -(cos * a_from_b[0] + sin * a_from_b[1]),
-        sin * a_from_b[0] - cos * a_from_b[1],
-        wrap_angle_rad(-a_from_b[2]),
-    ]
 }
 
 #[cfg(test)]
@@ -90,13 +87,27 @@ mod tests {
             .collect()
     }
 
+    /// The pose held in `v[0..3]`.
+    fn pose(v: &[f64]) -> Pose2 {
+        Pose2 {
+            x_m: v[0],
+            y_m: v[1],
+            theta_rad: v[2],
+        }
+    }
+
+    /// `[x_m, y_m, theta_rad]` of `p`.
+    fn entries(p: Pose2) -> Vec<f64> {
+        vec![p.x_m, p.y_m, p.theta_rad]
+    }
+
     #[test]
     fn compose_jacobians_match_finite_differences() {
-        let a = [1.0, -2.0, 0.7];
-        let b = [0.5, 0.3, -0.2];
+        let a = pose(&[1.0, -2.0, 0.7]);
+        let b = pose(&[0.5, 0.3, -0.2]);
         let (_, d_a, d_b) = compose_pose(a, b);
-        let num_a = numeric_jacobian(|v| compose_pose([v[0], v[1], v[2]], b).0.to_vec(), &a);
-        let num_b = numeric_jacobian(|v| compose_pose(a, [v[0], v[1], v[2]]).0.to_vec(), &b);
+        let num_a = numeric_jacobian(|v| entries(compose_pose(pose(v), b).0), &entries(a));
+        let num_b = numeric_jacobian(|v| entries(compose_pose(a, pose(v)).0), &entries(b));
         for r in 0..3 {
             for c in 0..3 {
                 assert!((d_a[(r, c)] - num_a[r][c]).abs() < 1e-6);
@@ -107,10 +118,10 @@ mod tests {
 
     #[test]
     fn point_jacobians_match_finite_differences() {
-        let a = [1.0, -2.0, 2.7];
+        let a = pose(&[1.0, -2.0, 2.7]);
         let p = [4.0, -1.5];
         let (_, d_pose, d_point) = transform_point(a, p);
-        let num_pose = numeric_jacobian(|v| transform_point([v[0], v[1], v[2]], p).0.to_vec(), &a);
+        let num_pose = numeric_jacobian(|v| transform_point(pose(v), p).0.to_vec(), &entries(a));
         let num_point = numeric_jacobian(|v| transform_point(a, [v[0], v[1]]).0.to_vec(), &p);
         for r in 0..2 {
             for c in 0..3 {
@@ -124,8 +135,8 @@ mod tests {
 
     #[test]
     fn inverse_composes_to_identity() {
-        let a = [3.0, 1.0, -2.9];
-        let (identity, _, _) = compose_pose(a, invert_pose(a));
-        assert!(identity.iter().all(|v| v.abs() < 1e-12));
+        let a = pose(&[3.0, 1.0, -2.9]);
+        let (identity, _, _) = compose_pose(a, a.inverse());
+        assert!(entries(identity).iter().all(|v| v.abs() < 1e-12));
     }
 }

@@ -26,6 +26,7 @@ use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_co
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
+use crate::geometry::Pose2;
 
 /// Noise of the equality constraint between two records of one landmark, metres (tiny: it
 /// only keeps the innovation covariance invertible).
@@ -56,7 +57,7 @@ pub struct GlobalMap {
     info: Vec<LandmarkInfo>,
     /// The local map (index into `bases_in_map`) each landmark was first mapped in.
     origin_map: Vec<usize>,
-    bases_in_map: Vec<[f64; 3]>,
+    bases_in_map: Vec<Pose2>,
     /// A number for each landmark that stays with it while others are fused away, in state
     /// order. Numbers are handed out in join order and fusions only remove entries, so they
     /// ascend.
@@ -68,10 +69,10 @@ pub struct GlobalMap {
 impl GlobalMap {
     /// An empty map whose first local map starts at `pose_in_map` with covariance
     /// `pose_covariance`.
-    pub fn new(pose_in_map: [f64; 3], pose_covariance: Matrix3<f64>) -> GlobalMap {
+    pub fn new(pose_in_map: Pose2, pose_covariance: Matrix3<f64>) -> GlobalMap {
         GlobalMap {
             state: EkfState::new(
-                DVector::from_row_slice(&pose_in_map),
+                DVector::from_row_slice(&[pose_in_map.x_m, pose_in_map.y_m, pose_in_map.theta_rad]),
                 DMatrix::from_column_slice(3, 3, pose_covariance.as_slice()),
             ),
             info: Vec::new(),
@@ -116,7 +117,7 @@ impl GlobalMap {
 
     /// The base frame of every local map so far, in the global frame (the base of the local
     /// map being built last), as estimated when each was started.
-    pub fn bases_in_map(&self) -> &[[f64; 3]] {
+    pub fn bases_in_map(&self) -> &[Pose2] {
         &self.bases_in_map
     }
 
@@ -129,18 +130,19 @@ impl GlobalMap {
     }
 
     /// The base frame of the local map being built.
-    pub fn current_base(&self) -> [f64; 3] {
+    pub fn current_base(&self) -> Pose2 {
         self.state.pose()
     }
 
     /// Re-expresses the whole map in another frame: `new_from_old` maps the current map frame
     /// into the new one (for example `enu_from_map` once GPS has fixed the alignment).
-    pub fn transform(&mut self, new_from_old: [f64; 3]) {
+    pub fn transform(&mut self, new_from_old: Pose2) {
         let n = self.state.dim();
         let mut mean = self.state.mean().clone();
         let mut jacobian = DMatrix::zeros(n, n);
         let (pose, _, d_pose) = compose_pose(new_from_old, self.state.pose());
-        mean.rows_mut(0, 3).copy_from_slice(&pose);
+        mean.rows_mut(0, 3)
+            .copy_from_slice(&[pose.x_m, pose.y_m, pose.theta_rad]);
         jacobian.view_mut((0, 0), (3, 3)).copy_from(&d_pose);
         for i in 0..self.state.landmark_count() {
             let (point, _, d_point) = transform_point(new_from_old, self.state.landmark(i));
@@ -173,7 +175,11 @@ impl GlobalMap {
         // global base has no uncertainty to regress on, the local estimate is not used.
         let base_offset = parts.base_offset.filter(|&offset| {
             let mean = local_state.mean();
-            let base = [mean[offset], mean[offset + 1], mean[offset + 2]];
+            let base = Pose2 {
+                x_m: mean[offset],
+                y_m: mean[offset + 1],
+                theta_rad: mean[offset + 2],
+            };
             let covariance = local_state
                 .covariance()
                 .fixed_view::<3, 3>(offset, offset)
@@ -192,7 +198,8 @@ impl GlobalMap {
         let mut d_base = DMatrix::zeros(k, 3);
         let mut d_local = DMatrix::zeros(k, n_local);
         let (robot, d_b, d_r) = compose_pose(base, local_state.pose());
-        mean.rows_mut(0, 3).copy_from_slice(&robot);
+        mean.rows_mut(0, 3)
+            .copy_from_slice(&[robot.x_m, robot.y_m, robot.theta_rad]);
         d_base.view_mut((0, 0), (3, 3)).copy_from(&d_b);
         d_local.view_mut((0, 0), (3, 3)).copy_from(&d_r);
         for i in 0..count {
@@ -427,7 +434,7 @@ mod tests {
     /// A global map holding the trees, and the join of a second local map that saw them
     /// shifted, told by place recognition that they are the same trees.
     fn join_recognised(shift_m: [f64; 2], min_pairs: usize) -> (JoinReport, usize) {
-        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
         let options = AssociationOptions {
             new_landmark_distance2: 0.0,
             min_pairs_against_the_map: min_pairs,
@@ -445,7 +452,7 @@ mod tests {
 
     #[test]
     fn landmark_numbers_follow_their_landmarks_through_a_fusion() {
-        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
         let options = AssociationOptions {
             new_landmark_distance2: 0.0,
             ..AssociationOptions::default()

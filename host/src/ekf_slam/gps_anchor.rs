@@ -13,6 +13,7 @@ use nalgebra::Matrix2;
 use super::frames::compose_pose;
 use super::motion_model::MotionModel;
 use super::submap_slam::SubmapSlam;
+use crate::geometry::Pose2;
 use crate::georef::{AlignmentPair, RigidAlignment2d, RigidAlignmentOptions};
 
 /// How fixes are used.
@@ -42,9 +43,9 @@ impl Default for GpsAnchorOptions {
 pub enum GpsOutcome {
     /// Paired with the filter's position, waiting for enough span to align.
     Paired,
-    /// Completed the alignment: the map was re-expressed by this `enu_from_map`
-    /// (`[x_m, y_m, theta_rad]`). Poses kept outside the filter must be moved by it too.
-    Aligned([f64; 3]),
+    /// Completed the alignment: the map was re-expressed by this `enu_from_map`. Poses kept
+    /// outside the filter must be moved by it too.
+    Aligned(Pose2),
     /// Fused as a position update.
     Fused,
     /// Rejected by the gate.
@@ -105,11 +106,15 @@ impl GpsAnchor {
         }
         let antenna = compose_pose(
             slam.pose_in_map().0,
-            [antenna_in_robot[0], antenna_in_robot[1], 0.0],
+            Pose2 {
+                x_m: antenna_in_robot[0],
+                y_m: antenna_in_robot[1],
+                theta_rad: 0.0,
+            },
         )
         .0;
         self.pairs.push(AlignmentPair {
-            point_in_map: [antenna[0], antenna[1]],
+            point_in_map: [antenna.x_m, antenna.y_m],
             point_in_enu: fix_in_enu,
             covariance_in_enu_m2: *noise_m2,
         });
@@ -125,7 +130,7 @@ impl GpsAnchor {
     }
 
     /// `enu_from_map` once the pairs span far enough.
-    fn try_align(&self) -> Option<[f64; 3]> {
+    fn try_align(&self) -> Option<Pose2> {
         let first = self.pairs.first()?.point_in_map;
         let span_m = self
             .pairs
@@ -137,8 +142,7 @@ impl GpsAnchor {
         }
         let alignment =
             RigidAlignment2d::estimate(&self.pairs, &RigidAlignmentOptions::default()).ok()?;
-        let t = alignment.enu_from_map;
-        Some([t.x_m, t.y_m, t.theta_rad])
+        Some(alignment.enu_from_map)
     }
 }
 
@@ -157,7 +161,7 @@ mod tests {
             DifferentialDriveModel::default(),
             RangeBearingModel::default(),
             SubmapSlamOptions::default(),
-            [0.0; 3],
+            Pose2::IDENTITY,
         );
         let mut anchor = GpsAnchor::new(GpsAnchorOptions::default());
         let noise = Matrix2::identity() * 0.25;
@@ -181,15 +185,15 @@ mod tests {
         let GpsOutcome::Aligned(t) = outcomes[aligned_at] else {
             unreachable!()
         };
-        assert!((t[0] - 100.0).abs() < 1e-6 && (t[1] - 200.0).abs() < 1e-6);
-        assert!((t[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
+        assert!((t.x_m - 100.0).abs() < 1e-6 && (t.y_m - 200.0).abs() < 1e-6);
+        assert!((t.theta_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert!(
             outcomes[aligned_at + 1..]
                 .iter()
                 .all(|o| *o == GpsOutcome::Fused)
         );
         let pose = slam.pose_in_map().0;
-        assert!((pose[0] - 100.0).abs() < 0.1 && (pose[1] - 240.0).abs() < 0.1);
+        assert!((pose.x_m - 100.0).abs() < 0.1 && (pose.y_m - 240.0).abs() < 0.1);
         // A 50 m jump is not fused.
         let jump = anchor.on_fix(&mut slam, [150.0, 240.0], &noise, [0.0; 2]);
         assert_eq!(jump, GpsOutcome::Rejected);

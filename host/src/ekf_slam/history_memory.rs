@@ -37,7 +37,7 @@ use super::constellation::{
     Constellation, ConstellationOptions, PlaceMatch, centroid_in_map, transform,
 };
 use super::submap_slam::MappedLandmark;
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Settings of [`HistoryMemory`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,10 +74,10 @@ impl Default for HistoryMemoryOptions {
 pub struct LoopClosure {
     /// The local map that confirmed the loop (as numbered by the caller).
     pub local_map: usize,
-    /// `[x_m, y_m, theta_rad]` in the global frame, `corrected_from_estimated`: applied to the
-    /// recent part of the map (`position_corrected = correction ⊕ position_in_map`) it puts
-    /// the local map's landmarks onto the old ones.
-    pub correction: [f64; 3],
+    /// `corrected_from_estimated`, in the global frame: applied to the recent part of the map
+    /// (`position_corrected = correction ⊕ position_in_map`) it puts the local map's landmarks
+    /// onto the old ones.
+    pub correction: Pose2,
     /// `(local landmark index, global landmark index)`: indices into the slices given to
     /// [`HistoryMemory::add_local_map`], to be fused.
     pub pairs: Vec<(usize, usize)>,
@@ -93,7 +93,7 @@ pub struct LoopClosure {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Evidence {
     local_map: usize,
-    old_from_local: [f64; 3],
+    old_from_local: Pose2,
     local_centroid_in_map: [f64; 2],
 }
 
@@ -218,7 +218,8 @@ impl HistoryMemory {
 
     /// Whether two accepted places imply the same correction.
     fn consistent(&self, a: &Evidence, b: &Evidence) -> bool {
-        let angle_ok = wrap_angle_rad(a.old_from_local[2] - b.old_from_local[2]).abs()
+        let angle_ok = wrap_angle_rad(a.old_from_local.theta_rad - b.old_from_local.theta_rad)
+            .abs()
             <= self.options.consistency_angle_rad;
         let distance_ok = [a.local_centroid_in_map, b.local_centroid_in_map]
             .iter()
@@ -238,7 +239,6 @@ mod tests {
     use nalgebra::Matrix2;
 
     use super::*;
-    use crate::ekf_slam::frames::invert_pose;
     use crate::ekf_slam::landmark_info::LandmarkInfo;
     use crate::pose_graph::synthetic::Lcg;
 
@@ -328,7 +328,7 @@ mod tests {
         trees: &[Tree],
         centre: [f64; 2],
         radius_m: f64,
-        estimated_from_true: [f64; 3],
+        estimated_from_true: Pose2,
         noise_m: f64,
     ) -> (Vec<MappedLandmark>, Vec<usize>) {
         let mut landmarks = Vec::new();
@@ -352,7 +352,7 @@ mod tests {
     /// Largest distance between where two corrections put the landmarks, and their angle
     /// difference.
     /// Asserts that `correction` is within 0.3 m (at every local landmark) and 1° of `truth`.
-    fn assert_correction_close(correction: [f64; 3], truth: [f64; 3], local: &[MappedLandmark]) {
+    fn assert_correction_close(correction: Pose2, truth: Pose2, local: &[MappedLandmark]) {
         let (distance_m, angle_rad) = correction_error(correction, truth, local);
         assert!(distance_m < 0.3, "{distance_m} m");
         assert!(
@@ -362,11 +362,7 @@ mod tests {
         );
     }
 
-    fn correction_error(
-        found: [f64; 3],
-        truth: [f64; 3],
-        landmarks: &[MappedLandmark],
-    ) -> (f64, f64) {
+    fn correction_error(found: Pose2, truth: Pose2, landmarks: &[MappedLandmark]) -> (f64, f64) {
         let distance = landmarks
             .iter()
             .map(|l| {
@@ -377,7 +373,19 @@ mod tests {
                 (a[0] - b[0]).hypot(a[1] - b[1])
             })
             .fold(0.0, f64::max);
-        (distance, wrap_angle_rad(found[2] - truth[2]).abs())
+        (
+            distance,
+            wrap_angle_rad(found.theta_rad - truth.theta_rad).abs(),
+        )
+    }
+
+    /// A pose, the angle as given (not wrapped).
+    fn pose(x_m: f64, y_m: f64, theta_rad: f64) -> Pose2 {
+        Pose2 {
+            x_m,
+            y_m,
+            theta_rad,
+        }
     }
 
     /// Pairs whose global index is the tree the local landmark really is.
@@ -395,8 +403,8 @@ mod tests {
         let global = old_map(&mut rng, &trees);
         let old: Vec<usize> = (0..global.len()).collect();
         // 9 m and 12° of drift around the origin: tens of metres at the park's far side.
-        let estimated_from_true = [9.0, -6.0, 12f64.to_radians()];
-        let truth = invert_pose(estimated_from_true);
+        let estimated_from_true = pose(9.0, -6.0, 12f64.to_radians());
+        let truth = estimated_from_true.inverse();
         let mut memory = HistoryMemory::new(HistoryMemoryOptions::default());
         let (local, ids) = local_view(
             &mut rng,
@@ -432,9 +440,9 @@ mod tests {
         let trees = random_park(&mut rng, 600, 160.0, 2.5);
         let global = old_map(&mut rng, &trees);
         let old: Vec<usize> = (0..global.len()).collect();
-        let drift_a = [-7.0, 11.0, (-15f64).to_radians()];
+        let drift_a = pose(-7.0, 11.0, (-15f64).to_radians());
         // The drift grows a little from one local map to the next.
-        let drift_b = [-7.3, 11.2, (-15.5f64).to_radians()];
+        let drift_b = pose(-7.3, 11.2, (-15.5f64).to_radians());
         let mut memory = HistoryMemory::new(HistoryMemoryOptions::default());
         let (local_a, _) = local_view(&mut rng, &trees, [60.0, 60.0], 18.0, drift_a, 0.2);
         let (local_b, ids_b) = local_view(&mut rng, &trees, [75.0, 65.0], 18.0, drift_b, 0.2);
@@ -444,7 +452,7 @@ mod tests {
             .add_local_map(4, &local_b, &global, &old)
             .expect("a loop after two consistent local maps");
         assert_eq!((closure.local_map, closure.evidence), (4, 2));
-        assert_correction_close(closure.correction, invert_pose(drift_b), &local_b);
+        assert_correction_close(closure.correction, drift_b.inverse(), &local_b);
         assert_eq!(correct_pairs(&closure.pairs, &ids_b), closure.inliers);
         assert_eq!(closure.inliers, closure.pairs.len());
         // The evidence is spent: the next local map alone does not close again.
@@ -458,8 +466,8 @@ mod tests {
         let trees = random_park(&mut rng, 600, 160.0, 2.5);
         let global = old_map(&mut rng, &trees);
         let old: Vec<usize> = (0..global.len()).collect();
-        let drift = [4.0, 3.0, 8f64.to_radians()];
-        let other_drift = [4.0, 3.0, 20f64.to_radians()];
+        let drift = pose(4.0, 3.0, 8f64.to_radians());
+        let other_drift = pose(4.0, 3.0, 20f64.to_radians());
         let mut memory = HistoryMemory::new(HistoryMemoryOptions::default());
         let (local_a, _) = local_view(&mut rng, &trees, [60.0, 60.0], 18.0, drift, 0.2);
         let (local_b, _) = local_view(&mut rng, &trees, [75.0, 65.0], 18.0, drift, 0.2);
@@ -482,7 +490,7 @@ mod tests {
         let old: Vec<usize> = (0..trees.len())
             .filter(|&i| trees[i].position[0] < 117.0)
             .collect();
-        let drift = [6.0, -4.0, 7f64.to_radians()];
+        let drift = pose(6.0, -4.0, 7f64.to_radians());
         let mut memory = HistoryMemory::new(HistoryMemoryOptions::default());
         let mut accepted = 0;
         // Eight consecutive local maps along the eastern half, never mapped before.
@@ -507,7 +515,7 @@ mod tests {
         let closure = memory
             .add_local_map(19, &local_b, &global, &old)
             .expect("the revisit is confirmed");
-        assert_correction_close(closure.correction, invert_pose(drift), &local_b);
+        assert_correction_close(closure.correction, drift.inverse(), &local_b);
         assert_eq!(correct_pairs(&closure.pairs, &ids_b), closure.inliers);
     }
 
@@ -539,7 +547,7 @@ mod tests {
             let trees = random_park(&mut rng, 300, 120.0, 2.5);
             let global = old_map(&mut rng, &trees);
             let old: Vec<usize> = (0..global.len()).collect();
-            let drift = [3.0, 2.0, 30f64.to_radians()];
+            let drift = pose(3.0, 2.0, 30f64.to_radians());
             let (local, _) = local_view(&mut rng, &trees, [60.0, 60.0], 20.0, drift, 0.2);
             let mut memory = HistoryMemory::new(HistoryMemoryOptions::default());
             memory.add_local_map(0, &local, &global, &old);

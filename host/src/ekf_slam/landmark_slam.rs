@@ -20,6 +20,7 @@ use super::{
     MapSmootherStats, MappedLandmark, MotionModel, RangeBearingModel, SubmapSlam,
     SubmapSlamOptions,
 };
+use crate::geometry::Pose2;
 
 /// How the method runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,9 +33,9 @@ pub struct LandmarkSlamOptions {
     pub antenna_in_robot: [f64; 2],
     /// The longest step predicted at once, seconds.
     pub max_predict_s: f64,
-    /// The pose the trajectory reports, in the robot frame (`[x_m, y_m, theta_rad]`, e.g. the
-    /// laser's); the robot's own when `None`.
-    pub reported_in_robot: Option<[f64; 3]>,
+    /// The pose the trajectory reports, in the robot frame (e.g. the laser's); the robot's own
+    /// when `None`.
+    pub reported_in_robot: Option<Pose2>,
     /// Estimate the trajectory again against the finished map when the run ends. The pass
     /// holds the motion model's own entries at their final values, so it suits a model whose
     /// entries are constants (odometry calibration), not one whose entries move (velocity).
@@ -62,8 +63,8 @@ impl Default for LandmarkSlamOptions {
 pub struct TimedPose {
     /// The event's time, seconds.
     pub t_s: f64,
-    /// `[x_m, y_m, theta_rad]` in the map frame.
-    pub pose_in_map: [f64; 3],
+    /// The reported pose in the map frame.
+    pub pose_in_map: Pose2,
 }
 
 /// An event as the smoothing pass replays it.
@@ -99,7 +100,7 @@ where
     /// The method with `motion` and `sensor` models, the robot at the map's origin.
     pub fn new(motion: M, sensor: RangeBearingModel, options: LandmarkSlamOptions) -> Self {
         LandmarkSlam {
-            slam: SubmapSlam::new(motion.clone(), sensor, options.slam, [0.0; 3]),
+            slam: SubmapSlam::new(motion.clone(), sensor, options.slam, Pose2::IDENTITY),
             anchor: GpsAnchor::new(options.gps),
             motion,
             sensor,
@@ -211,7 +212,7 @@ where
     }
 
     /// The robot's pose in the map frame and its covariance.
-    pub fn pose(&self) -> ([f64; 3], Matrix3<f64>) {
+    pub fn pose(&self) -> (Pose2, Matrix3<f64>) {
         self.slam.pose_in_map()
     }
 
@@ -250,7 +251,7 @@ where
     }
 
     /// `robot_in_map` as the trajectory reports it.
-    fn reported(&self, robot_in_map: [f64; 3]) -> [f64; 3] {
+    fn reported(&self, robot_in_map: Pose2) -> Pose2 {
         match self.options.reported_in_robot {
             Some(in_robot) => compose_pose(robot_in_map, in_robot).0,
             None => robot_in_map,
@@ -271,7 +272,7 @@ where
             .or_else(|| slam.global_map().bases_in_map().first().copied())
             .unwrap_or_default();
         let mut robot = slam.robot_in_local_map();
-        robot.as_mut_slice()[..3].copy_from_slice(&start);
+        robot.as_mut_slice()[..3].copy_from_slice(&[start.x_m, start.y_m, start.theta_rad]);
         let mut smoother = MapSmoother::new(
             &self.motion,
             self.sensor,

@@ -23,6 +23,7 @@ use super::landmark_info::LandmarkInfo;
 use super::motion_model::MotionModel;
 use super::options::AssociationOptions;
 use super::range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
+use crate::geometry::Pose2;
 
 /// What one batch of observations did to the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -106,7 +107,7 @@ impl LocalMap {
 
     /// The base's pose in the map frame and its covariance, when the local map estimates it
     /// (see [`Self::add_base`]).
-    pub fn base_in_map(&self) -> Option<([f64; 3], Matrix3<f64>)> {
+    pub fn base_in_map(&self) -> Option<(Pose2, Matrix3<f64>)> {
         let offset = self.base_offset?;
         let mean = self.state.mean();
         let covariance = self
@@ -115,7 +116,11 @@ impl LocalMap {
             .fixed_view::<3, 3>(offset, offset)
             .into_owned();
         Some((
-            [mean[offset], mean[offset + 1], mean[offset + 2]],
+            Pose2 {
+                x_m: mean[offset],
+                y_m: mean[offset + 1],
+                theta_rad: mean[offset + 2],
+            },
             covariance,
         ))
     }
@@ -127,19 +132,19 @@ impl LocalMap {
 
     /// Starts estimating the base's pose in the map frame from `base_in_map` with
     /// `covariance` (the global map's marginal of it). Does nothing if already estimated.
-    pub fn add_base(&mut self, base_in_map: [f64; 3], covariance: &Matrix3<f64>) {
+    pub fn add_base(&mut self, base_in_map: Pose2, covariance: &Matrix3<f64>) {
         if self.base_offset.is_some() {
             return;
         }
         let offset = self.state.extend_robot(
-            &DVector::from_row_slice(&base_in_map),
+            &DVector::from_row_slice(&[base_in_map.x_m, base_in_map.y_m, base_in_map.theta_rad]),
             &DMatrix::from_column_slice(3, 3, covariance.as_slice()),
         );
         self.base_offset = Some(offset);
     }
 
     /// Re-expresses the estimate of the base, if any, in another map frame.
-    pub fn transform_base(&mut self, new_from_old: [f64; 3]) {
+    pub fn transform_base(&mut self, new_from_old: Pose2) {
         if let Some(offset) = self.base_offset {
             self.state.transform_pose_entries(offset, new_from_old);
         }
@@ -292,7 +297,7 @@ impl LocalMap {
     /// Starts a landmark where `observation` puts it.
     fn add_landmark(
         &mut self,
-        pose: [f64; 3],
+        pose: Pose2,
         observation: &LandmarkObservation,
         sensor: &RangeBearingModel,
         noise: &Matrix2<f64>,

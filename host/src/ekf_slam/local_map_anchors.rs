@@ -12,6 +12,7 @@
 
 use super::constellation::fit_rigid;
 use super::global_map::GlobalMap;
+use crate::geometry::Pose2;
 
 /// The landmarks of one finished local map.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,7 +53,7 @@ impl LocalMapAnchors {
 
     /// The base of every recorded local map (`map_from_base`) fitted to where `global` now
     /// puts its landmarks; `None` for those with too few left.
-    pub fn bases_in_map(&self, global: &GlobalMap) -> Vec<Option<[f64; 3]>> {
+    pub fn bases_in_map(&self, global: &GlobalMap) -> Vec<Option<Pose2>> {
         self.maps
             .iter()
             .map(|anchors| {
@@ -86,7 +87,7 @@ mod tests {
     fn a_base_follows_its_landmarks_when_the_map_moves() {
         let trees = [[8.0, 3.0], [12.0, -4.0], [15.0, 6.0], [20.0, -1.0]];
         let local = seen_once(&trees);
-        let mut global = GlobalMap::new([0.0; 3], Matrix3::zeros());
+        let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
         let mut anchors = LocalMapAnchors::default();
         let in_base = (0..local.landmark_count())
             .map(|i| local.state().landmark(i))
@@ -98,12 +99,20 @@ mod tests {
         // A local map of two trees has no base to fit.
         anchors.record(global.next_landmark_id(), vec![[1.0, 0.0], [2.0, 0.0]]);
 
-        let moved = [3.0, -2.0, 0.4];
+        let moved = Pose2 {
+            x_m: 3.0,
+            y_m: -2.0,
+            theta_rad: 0.4,
+        };
         global.transform(moved);
         let bases = anchors.bases_in_map(&global);
         assert_eq!(bases.len(), 2);
         let base = bases[0].expect("four landmarks fit a base");
-        for (found, expected) in base.iter().zip(moved) {
+        for (found, expected) in [
+            (base.x_m, moved.x_m),
+            (base.y_m, moved.y_m),
+            (base.theta_rad, moved.theta_rad),
+        ] {
             assert!((found - expected).abs() < 1e-9, "{base:?}");
         }
         assert_eq!(bases[1], None);

@@ -27,7 +27,7 @@ use super::frames::transform_point;
 use super::motion_model::MotionModel;
 use super::range_bearing::{LandmarkObservation, RangeBearingModel};
 use super::submap_slam::MappedLandmark;
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Settings of [`MapSmoother`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -210,7 +210,7 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         gate_distance2: f64,
     ) -> bool {
         self.begin_epoch();
-        let (predicted, d_pose, _) = transform_point(self.pose_array(), antenna_in_robot);
+        let (predicted, d_pose, _) = transform_point(self.robot_pose(), antenna_in_robot);
         let innovation = Vector2::new(
             position_in_map[0] - predicted[0],
             position_in_map[1] - predicted[1],
@@ -238,13 +238,17 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
     }
 
     /// The smoothed pose of every epoch: the start (epoch 0), then each scan and fix.
-    pub fn smooth(&self) -> Vec<[f64; 3]> {
-        let mut smoothed = vec![[0.0; 3]; self.epochs.len()];
+    pub fn smooth(&self) -> Vec<Pose2> {
+        let mut smoothed = vec![Pose2::IDENTITY; self.epochs.len()];
         let Some(last) = self.epochs.last() else {
             return smoothed;
         };
         let mut next = last.filtered.0;
-        smoothed[self.epochs.len() - 1] = [next[0], next[1], next[2]];
+        smoothed[self.epochs.len() - 1] = Pose2 {
+            x_m: next[0],
+            y_m: next[1],
+            theta_rad: next[2],
+        };
         for k in (0..self.epochs.len() - 1).rev() {
             let (filtered, p_filtered) = self.epochs[k].filtered;
             let (predicted, p_predicted) = self.epochs[k + 1].predicted;
@@ -260,7 +264,11 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
                 }
                 None => filtered,
             };
-            smoothed[k] = [pose[0], pose[1], pose[2]];
+            smoothed[k] = Pose2 {
+                x_m: pose[0],
+                y_m: pose[1],
+                theta_rad: pose[2],
+            };
             next = pose;
         }
         smoothed
@@ -270,8 +278,13 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         Vector3::new(self.robot[0], self.robot[1], self.robot[2])
     }
 
-    fn pose_array(&self) -> [f64; 3] {
-        [self.robot[0], self.robot[1], self.robot[2]]
+    /// The pose entries of the robot block, as the motion and sensor models take them.
+    fn robot_pose(&self) -> Pose2 {
+        Pose2 {
+            x_m: self.robot[0],
+            y_m: self.robot[1],
+            theta_rad: self.robot[2],
+        }
     }
 
     /// Records the current estimate as the last epoch's filtered one.
@@ -289,7 +302,7 @@ impl<'a, M: MotionModel> MapSmoother<'a, M> {
         observation: &LandmarkObservation,
         landmark_noise: &Matrix2<f64>,
     ) -> Option<Pairing> {
-        let pose = self.pose_array();
+        let pose = self.robot_pose();
         let noise = self.sensor.noise();
         let (at, d_pose, d_observation) =
             self.sensor
@@ -391,7 +404,7 @@ mod tests {
 
     fn sensor() -> RangeBearingModel {
         RangeBearingModel {
-            sensor_in_robot: [0.0; 3],
+            sensor_in_robot: Pose2::IDENTITY,
             sigma_range_m: 0.05,
             sigma_bearing_rad: 0.5f64.to_radians(),
         }
@@ -413,7 +426,7 @@ mod tests {
     }
 
     /// What the sensor reads of `landmarks` from `pose`, without noise.
-    fn observe(pose: [f64; 3], landmarks: &[MappedLandmark]) -> Vec<LandmarkObservation> {
+    fn observe(pose: Pose2, landmarks: &[MappedLandmark]) -> Vec<LandmarkObservation> {
         landmarks
             .iter()
             .filter_map(|l| sensor().predict(pose, l.position_in_map))
@@ -432,12 +445,8 @@ mod tests {
         model: &DifferentialDriveModel,
         landmarks: &[MappedLandmark],
         seconds: usize,
-        mut at_second: impl FnMut(
-            &mut MapSmoother<'_, DifferentialDriveModel>,
-            [f64; 3],
-            &mut Vec<usize>,
-        ),
-    ) -> Vec<[f64; 3]> {
+        mut at_second: impl FnMut(&mut MapSmoother<'_, DifferentialDriveModel>, Pose2, &mut Vec<usize>),
+    ) -> Vec<Pose2> {
         let mut smoother = MapSmoother::new(
             model,
             sensor(),
@@ -455,7 +464,11 @@ mod tests {
             for _ in 0..10 {
                 smoother.predict(&odometry, 0.1);
             }
-            at_second(&mut smoother, [second as f64, 0.0, 0.0], &mut epochs);
+            let truth = Pose2 {
+                x_m: second as f64,
+                ..Pose2::IDENTITY
+            };
+            at_second(&mut smoother, truth, &mut epochs);
         }
         let smoothed = smoother.smooth();
         epochs.into_iter().map(|e| smoothed[e]).collect()
@@ -477,7 +490,7 @@ mod tests {
         });
         // Odometry alone would be 1 m short at 20 s.
         for (second, pose) in poses.iter().enumerate() {
-            let error_m = (pose[0] - second as f64).hypot(pose[1]);
+            let error_m = (pose.x_m - second as f64).hypot(pose.y_m);
             assert!(error_m < 0.1, "{second} s: {pose:?}");
         }
     }
@@ -490,23 +503,23 @@ mod tests {
             ..DifferentialDriveModel::default()
         };
         let noise = Matrix2::identity() * 0.01;
-        let mut filtered_at_10_s = [0.0; 3];
+        let mut filtered_at_10_s = Pose2::IDENTITY;
         let poses = drive_short(&model, &[], 20, |smoother, truth, epochs| {
             epochs.push(smoother.observe(&[]));
-            if truth[0] == 10.0 {
-                filtered_at_10_s = smoother.pose_array();
+            if truth.x_m == 10.0 {
+                filtered_at_10_s = smoother.robot_pose();
             }
-            if truth[0] == 20.0 {
+            if truth.x_m == 20.0 {
                 assert!(smoother.observe_position([20.0, 0.0], [0.0; 2], &noise, 25.0));
             }
         });
         // Filtered, the pose at 10 s is 0.5 m short; the fix at 20 s takes most of that back.
         assert!(
-            (filtered_at_10_s[0] - 9.5).abs() < 1e-6,
+            (filtered_at_10_s.x_m - 9.5).abs() < 1e-6,
             "{filtered_at_10_s:?}"
         );
-        assert!((poses[10][0] - 10.0).abs() < 0.1, "{:?}", poses[10]);
-        assert!((poses[20][0] - 20.0).abs() < 0.2, "{:?}", poses[20]);
+        assert!((poses[10].x_m - 10.0).abs() < 0.1, "{:?}", poses[10]);
+        assert!((poses[20].x_m - 20.0).abs() < 0.2, "{:?}", poses[20]);
     }
 
     #[test]
@@ -515,13 +528,13 @@ mod tests {
         // Two trees 0.3 m apart: at 10 m, closer than the bearing noise tells apart.
         let trees = [landmark(10.0, 0.0), landmark(10.0, 0.3)];
         let mut smoother = at_origin(&model, &trees);
-        smoother.observe(&observe([0.0; 3], &trees[..1]));
+        smoother.observe(&observe(Pose2::IDENTITY, &trees[..1]));
         assert_eq!(smoother.stats().paired, 0);
         assert_eq!(smoother.stats().unpaired, 1);
 
         let alone = [landmark(10.0, 0.0)];
         let mut smoother = at_origin(&model, &alone);
-        smoother.observe(&observe([0.0; 3], &alone));
+        smoother.observe(&observe(Pose2::IDENTITY, &alone));
         assert_eq!(smoother.stats().paired, 1);
     }
 }

@@ -7,6 +7,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::geometry::{Pose2, wrap_angle_rad};
+
 /// The outcome of one motion step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionPrediction {
@@ -28,7 +30,7 @@ pub trait MotionModel {
 
     /// Mean and covariance of the robot block at `pose` (known exactly) when a run starts,
     /// with the model's own entries at their priors.
-    fn initial_robot(&self, pose: [f64; 3]) -> (DVector<f64>, DMatrix<f64>);
+    fn initial_robot(&self, pose: Pose2) -> (DVector<f64>, DMatrix<f64>);
 
     /// Predicts `robot` over `dt_s` seconds driven by `input`.
     fn predict(&self, robot: &DVector<f64>, input: &Self::Input, dt_s: f64) -> MotionPrediction;
@@ -36,20 +38,20 @@ pub trait MotionModel {
 
 /// Moves a pose along the arc of speed `speed_mps` and turn rate `yaw_rate_radps` over `dt_s`
 /// with the mid-point heading, and returns the new pose and the derivatives of the new pose
-/// with respect to heading, speed and turn rate.
+/// (rows: `x_m`, `y_m`, `theta_rad`) with respect to heading, speed and turn rate (columns).
 pub(crate) fn midpoint_step(
-    pose: [f64; 3],
+    pose: Pose2,
     speed_mps: f64,
     yaw_rate_radps: f64,
     dt_s: f64,
-) -> ([f64; 3], [[f64; 3]; 3]) {
-    let phi = pose[2] + 0.5 * yaw_rate_radps * dt_s;
+) -> (Pose2, [[f64; 3]; 3]) {
+    let phi = pose.theta_rad + 0.5 * yaw_rate_radps * dt_s;
     let (sin, cos) = phi.sin_cos();
-    let next = [
-        pose[0] + speed_mps * dt_s * cos,
-        pose[1] + speed_mps * dt_s * sin,
-        crate::geometry::wrap_angle_rad(pose[2] + yaw_rate_radps * dt_s),
-    ];
+    let next = Pose2 {
+        x_m: pose.x_m + speed_mps * dt_s * cos,
+        y_m: pose.y_m + speed_mps * dt_s * sin,
+        theta_rad: wrap_angle_rad(pose.theta_rad + yaw_rate_radps * dt_s),
+    };
     // Columns: d/dtheta, d/dspeed, d/dyaw_rate; rows: x, y, theta.
     let d = [
         [

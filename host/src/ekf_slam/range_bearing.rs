@@ -1,6 +1,6 @@
 //! Range-bearing observations of point landmarks by a sensor mounted on the robot.
 //!
-//! The sensor sits at `sensor_in_robot = [x_m, y_m, theta_rad]`. For a robot pose `p` and a
+//! The sensor sits at the pose `sensor_in_robot`. For a robot pose `p` and a
 //! landmark `l` (both in the filter's frame) with sensor pose `s = p ⊕ sensor_in_robot`:
 //! `range = |l − s_xy|`, `bearing = atan2(l_y − s_y, l_x − s_x) − s_θ` (wrapped into
 //! `(−π, π]`, counter-clockwise from the sensor's forward axis).
@@ -8,7 +8,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 
 use super::frames::{compose_pose, transform_point};
-use crate::geometry::wrap_angle_rad;
+use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// One landmark seen in a scan, in the sensor frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,7 +37,7 @@ pub struct PredictedObservation {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RangeBearingModel {
     /// The sensor's pose on the robot.
-    pub sensor_in_robot: [f64; 3],
+    pub sensor_in_robot: Pose2,
     /// Standard deviation of a range, metres.
     pub sigma_range_m: f64,
     /// Standard deviation of a bearing, radians.
@@ -48,7 +48,7 @@ impl Default for RangeBearingModel {
     /// A sensor at the robot origin, 0.1 m and 1°.
     fn default() -> Self {
         RangeBearingModel {
-            sensor_in_robot: [0.0; 3],
+            sensor_in_robot: Pose2::IDENTITY,
             sigma_range_m: 0.1,
             sigma_bearing_rad: 1f64.to_radians(),
         }
@@ -68,16 +68,16 @@ impl RangeBearingModel {
 
     /// The expected observation of `landmark` from `pose`, or `None` when the landmark lies
     /// on the sensor (no defined bearing).
-    pub fn predict(&self, pose: [f64; 3], landmark: [f64; 2]) -> Option<PredictedObservation> {
+    pub fn predict(&self, pose: Pose2, landmark: [f64; 2]) -> Option<PredictedObservation> {
         let (sensor, d_sensor_d_pose, _) = compose_pose(pose, self.sensor_in_robot);
-        let dx = landmark[0] - sensor[0];
-        let dy = landmark[1] - sensor[1];
+        let dx = landmark[0] - sensor.x_m;
+        let dy = landmark[1] - sensor.y_m;
         let q = dx * dx + dy * dy;
         if q < 1e-12 {
             return None;
         }
         let range = q.sqrt();
-        let bearing = wrap_angle_rad(dy.atan2(dx) - sensor[2]);
+        let bearing = wrap_angle_rad(dy.atan2(dx) - sensor.theta_rad);
         // Derivatives with respect to the landmark; those with respect to the sensor position
         // are their negatives, and the bearing also falls by one per radian of sensor heading.
         let d_landmark = Matrix2::new(dx / range, dy / range, -dy / q, dx / q);
@@ -94,7 +94,7 @@ impl RangeBearingModel {
     /// (2 × 2).
     pub fn landmark_position(
         &self,
-        pose: [f64; 3],
+        pose: Pose2,
         range_m: f64,
         bearing_rad: f64,
     ) -> ([f64; 2], Matrix2x3<f64>, Matrix2<f64>) {
@@ -127,14 +127,35 @@ mod tests {
     use super::*;
 
     const MODEL: RangeBearingModel = RangeBearingModel {
-        sensor_in_robot: [0.95, -0.5, 0.1],
+        sensor_in_robot: Pose2 {
+            x_m: 0.95,
+            y_m: -0.5,
+            theta_rad: 0.1,
+        },
         sigma_range_m: 0.1,
         sigma_bearing_rad: 0.01,
     };
 
+    const POSE: Pose2 = Pose2 {
+        x_m: 3.0,
+        y_m: -1.0,
+        theta_rad: 2.0,
+    };
+
+    /// `pose` with entry `col` (`x_m`, `y_m`, `theta_rad`) moved by `delta`.
+    fn nudged(pose: Pose2, col: usize, delta: f64) -> Pose2 {
+        let mut nudged = pose;
+        match col {
+            0 => nudged.x_m += delta,
+            1 => nudged.y_m += delta,
+            _ => nudged.theta_rad += delta,
+        }
+        nudged
+    }
+
     #[test]
     fn inverse_then_predict_round_trips() {
-        let pose = [3.0, -1.0, 2.0];
+        let pose = POSE;
         let (landmark, _, _) = MODEL.landmark_position(pose, 12.0, -0.7);
         let predicted = MODEL.predict(pose, landmark).unwrap();
         assert!((predicted.z[0] - 12.0).abs() < 1e-9);
@@ -143,15 +164,13 @@ mod tests {
 
     #[test]
     fn jacobians_match_finite_differences() {
-        let pose = [3.0, -1.0, 2.0];
+        let pose = POSE;
         let landmark = [-5.0, 4.0];
         let p = MODEL.predict(pose, landmark).unwrap();
         let eps = 1e-7;
         for col in 0..3 {
-            let mut plus = pose;
-            plus[col] += eps;
-            let mut minus = pose;
-            minus[col] -= eps;
+            let plus = nudged(pose, col, eps);
+            let minus = nudged(pose, col, -eps);
             let numeric = (MODEL.predict(plus, landmark).unwrap().z
                 - MODEL.predict(minus, landmark).unwrap().z)
                 / (2.0 * eps);
@@ -169,10 +188,8 @@ mod tests {
         }
         let (_, d_pose, d_obs) = MODEL.landmark_position(pose, 7.0, 0.3);
         for col in 0..3 {
-            let mut plus = pose;
-            plus[col] += eps;
-            let mut minus = pose;
-            minus[col] -= eps;
+            let plus = nudged(pose, col, eps);
+            let minus = nudged(pose, col, -eps);
             let a = MODEL.landmark_position(plus, 7.0, 0.3).0;
             let b = MODEL.landmark_position(minus, 7.0, 0.3).0;
             assert!(((a[0] - b[0]) / (2.0 * eps) - d_pose[(0, col)]).abs() < 1e-6);
@@ -185,8 +202,8 @@ mod tests {
 
     #[test]
     fn landmark_on_the_sensor_has_no_prediction() {
-        let pose = [0.0, 0.0, 0.0];
+        let pose = Pose2::IDENTITY;
         let (sensor, _, _) = compose_pose(pose, MODEL.sensor_in_robot);
-        assert!(MODEL.predict(pose, [sensor[0], sensor[1]]).is_none());
+        assert!(MODEL.predict(pose, [sensor.x_m, sensor.y_m]).is_none());
     }
 }

@@ -13,7 +13,7 @@
 
 use nalgebra::{DVector, Matrix2, Matrix3};
 
-use super::frames::{compose_pose, invert_pose, transform_point};
+use super::frames::{compose_pose, transform_point};
 use super::global_map::{GlobalMap, JoinReport};
 use super::history_memory::HistoryMemory;
 use super::landmark_info::LandmarkInfo;
@@ -22,6 +22,7 @@ use super::local_map_anchors::LocalMapAnchors;
 use super::motion_model::MotionModel;
 use super::options::SubmapSlamOptions;
 use super::range_bearing::{LandmarkObservation, RangeBearingModel};
+use crate::geometry::Pose2;
 
 /// A landmark of the map, in the map frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,9 +77,9 @@ impl<M: MotionModel> SubmapSlam<M> {
         motion: M,
         sensor: RangeBearingModel,
         options: SubmapSlamOptions,
-        start_in_map: [f64; 3],
+        start_in_map: Pose2,
     ) -> SubmapSlam<M> {
-        let (robot, covariance) = motion.initial_robot([0.0; 3]);
+        let (robot, covariance) = motion.initial_robot(Pose2::IDENTITY);
         SubmapSlam {
             global: GlobalMap::new(start_in_map, Matrix3::zeros()),
             local: LocalMap::new(robot, covariance),
@@ -158,7 +159,7 @@ impl<M: MotionModel> SubmapSlam<M> {
                 }
             };
         }
-        let base_from_map = invert_pose(self.global.current_base());
+        let base_from_map = self.global.current_base().inverse();
         let (in_base, _, d_point) = transform_point(base_from_map, position_in_map);
         let total = d_point * noise * d_point.transpose();
         match self
@@ -175,7 +176,7 @@ impl<M: MotionModel> SubmapSlam<M> {
 
     /// Re-expresses the map in another frame (`new_from_old`); the local map, relative to
     /// its base, is unchanged (its estimate of the base, if any, moves with the map).
-    pub fn transform_map(&mut self, new_from_old: [f64; 3]) {
+    pub fn transform_map(&mut self, new_from_old: Pose2) {
         self.global.transform(new_from_old);
         self.local.transform_base(new_from_old);
     }
@@ -211,7 +212,7 @@ impl<M: MotionModel> SubmapSlam<M> {
         if report.place_rejected {
             self.stats.rejected_places += 1;
         }
-        let (mut mean, mut covariance) = self.motion.initial_robot([0.0; 3]);
+        let (mut mean, mut covariance) = self.motion.initial_robot(Pose2::IDENTITY);
         for i in 3..mean.len() {
             mean[i] = robot[i];
             for j in 3..mean.len() {
@@ -244,7 +245,7 @@ impl<M: MotionModel> SubmapSlam<M> {
     }
 
     /// The robot pose in the map frame and its covariance.
-    pub fn pose_in_map(&self) -> ([f64; 3], Matrix3<f64>) {
+    pub fn pose_in_map(&self) -> (Pose2, Matrix3<f64>) {
         if let Some(offset) = self.local.base_offset() {
             // Base and robot are both local entries, correlated through the fixes.
             let state = self.local.state();
@@ -272,7 +273,7 @@ impl<M: MotionModel> SubmapSlam<M> {
     /// ([`LocalMapAnchors`]): a pose recorded in local map `k`'s frame lies at
     /// `bases[k] ⊕ pose` in the map as it stands now. `None` for local maps with too few
     /// landmarks left.
-    pub fn local_map_bases_in_map(&self) -> Vec<Option<[f64; 3]>> {
+    pub fn local_map_bases_in_map(&self) -> Vec<Option<Pose2>> {
         self.anchors.bases_in_map(&self.global)
     }
 
@@ -392,25 +393,25 @@ mod tests {
             model,
             RangeBearingModel::default(),
             SubmapSlamOptions::default(),
-            [0.0; 3],
+            Pose2::IDENTITY,
         );
         drive(&mut slam, 100);
         let (pose, covariance) = slam.pose_in_map();
         // The truth is 100 m on; the filter says 98 m, 2 m short, which its own uncertainty
         // (accumulated over ten local maps, σ ≈ 1 m) covers but the current local map's
         // (σ ≈ 0.3 m) does not.
-        assert!((pose[0] - 98.0).abs() < 1e-6);
+        assert!((pose.x_m - 98.0).abs() < 1e-6);
         let sigma_x = covariance[(0, 0)].sqrt();
         assert!(2.0 / sigma_x < 3.0, "σx = {sigma_x}");
         let noise = Matrix2::identity() * 0.25;
         assert!(slam.observe_position([100.0, 0.0], [0.0; 2], &noise, 25.0));
         let (after, after_covariance) = slam.pose_in_map();
-        assert!((after[0] - 100.0).abs() < 0.5, "x = {}", after[0]);
+        assert!((after.x_m - 100.0).abs() < 0.5, "x = {}", after.x_m);
         assert!(after_covariance[(0, 0)] < 0.25);
         // Joining moves the global map's base (the new local map's start) onto the fix too.
         slam.close_local_map();
         let base = slam.global_map().current_base();
-        assert!((base[0] - 100.0).abs() < 0.5, "base x = {}", base[0]);
+        assert!((base.x_m - 100.0).abs() < 0.5, "base x = {}", base.x_m);
         assert!(slam.global_map().state().pose_covariance()[(0, 0)] < 0.25);
     }
 }
