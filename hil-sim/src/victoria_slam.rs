@@ -35,11 +35,9 @@ use host::ekf_slam::{
     LandmarkSlam, LandmarkSlamOptions, MapSmootherStats, RangeBearingModel, SubmapSlam,
     SubmapSlamOptions, SubmapSlamStats, TimedPose,
 };
+use host::evaluation::{TimedPosition, error_to_gps, receiver_jumps};
 use host::geometry::Pose2;
-use host::georef::{
-    AlignmentPair, GeoRefError, LandmarkInEnu, LocalFrame, RigidAlignment2d, RigidAlignmentOptions,
-    write_geojson, write_kml,
-};
+use host::georef::{GeoRefError, LandmarkInEnu, LocalFrame, write_geojson, write_kml};
 use nalgebra::Matrix2;
 use serde::Serialize;
 
@@ -446,77 +444,23 @@ fn scan_observations(
         .collect()
 }
 
-/// The trajectory's position at `t_s`, interpolated between the poses around it.
-fn position_at(trajectory: &[StampedPose], t_s: f64) -> Option<[f64; 2]> {
-    let after = trajectory.partition_point(|p| p.t_s < t_s);
-    if after == 0 || after == trajectory.len() {
-        return None;
+/// A fix of `gps.dat` as a timed position for [`host::evaluation`].
+fn timed_fix(fix: &LocalGpsFix) -> TimedPosition {
+    TimedPosition {
+        t_s: fix.t_s,
+        position_m: [fix.x_m, fix.y_m],
     }
-    let (a, b) = (trajectory[after - 1], trajectory[after]);
-    let f = if b.t_s > a.t_s {
-        (t_s - a.t_s) / (b.t_s - a.t_s)
-    } else {
-        0.0
-    };
-    Some([
-        a.pose.x_m + f * (b.pose.x_m - a.pose.x_m),
-        a.pose.y_m + f * (b.pose.y_m - a.pose.y_m),
-    ])
 }
 
-/// Whether each fix is a receiver jump: further from both its previous and its next fix than
-/// the car could drive at [`GPS_JUMP_SPEED_MPS`] (a first or last fix is judged by its one
-/// neighbour).
-fn receiver_jumps(gps: &[LocalGpsFix]) -> Vec<bool> {
-    let too_fast = |a: &LocalGpsFix, b: &LocalGpsFix| {
-        let dt_s = (b.t_s - a.t_s).abs();
-        (b.x_m - a.x_m).hypot(b.y_m - a.y_m) > GPS_JUMP_SPEED_MPS * dt_s
-    };
-    (0..gps.len())
-        .map(|i| {
-            let before = i.checked_sub(1).map(|p| too_fast(&gps[p], &gps[i]));
-            let after = gps.get(i + 1).map(|next| too_fast(&gps[i], next));
-            match (before, after) {
-                (Some(a), Some(b)) => a && b,
-                (Some(one), None) | (None, Some(one)) => one,
-                (None, None) => false,
-            }
+/// The trajectory's positions for [`host::evaluation`].
+fn positions(trajectory: &[StampedPose]) -> Vec<TimedPosition> {
+    trajectory
+        .iter()
+        .map(|p| TimedPosition {
+            t_s: p.t_s,
+            position_m: [p.pose.x_m, p.pose.y_m],
         })
         .collect()
-}
-
-/// RMS and median distance of the trajectory to the fixes, after aligning it when `align`.
-fn error_to_gps(trajectory: &[StampedPose], gps: &[LocalGpsFix], align: bool) -> (usize, f64, f64) {
-    let pairs: Vec<AlignmentPair> = gps
-        .iter()
-        .filter_map(|fix| {
-            position_at(trajectory, fix.t_s).map(|p| AlignmentPair {
-                point_in_map: p,
-                point_in_enu: [fix.x_m, fix.y_m],
-                covariance_in_enu_m2: Matrix2::identity(),
-            })
-        })
-        .collect();
-    let enu_from_map = if align {
-        RigidAlignment2d::estimate(&pairs, &RigidAlignmentOptions::default())
-            .map(|a| a.enu_from_map)
-            .unwrap_or_default()
-    } else {
-        Pose2::IDENTITY
-    };
-    let mut distances: Vec<f64> = pairs
-        .iter()
-        .map(|pair| {
-            let [x, y] = enu_from_map.transform_point(pair.point_in_map);
-            (x - pair.point_in_enu[0]).hypot(y - pair.point_in_enu[1])
-        })
-        .collect();
-    if distances.is_empty() {
-        return (0, f64::NAN, f64::NAN);
-    }
-    let rms = (distances.iter().map(|d| d * d).sum::<f64>() / distances.len() as f64).sqrt();
-    distances.sort_by(f64::total_cmp);
-    (distances.len(), rms, distances[distances.len() / 2])
 }
 
 /// Step times grouped by map size.
@@ -639,22 +583,19 @@ fn write_outputs(
         write_kml(BufWriter::new(file), frame, &trajectory_in_enu, &landmarks)?;
     }
 
-    let (gps_compared, rms_to_gps_m, median_to_gps_m) =
-        error_to_gps(&run.trajectory, &park.gps, !options.use_gps);
-    let jumps = receiver_jumps(&park.gps);
-    let steady: Vec<LocalGpsFix> = park
-        .gps
+    let align = !options.use_gps;
+    let fixes: Vec<TimedPosition> = park.gps.iter().map(timed_fix).collect();
+    let jumps = receiver_jumps(&fixes, GPS_JUMP_SPEED_MPS);
+    let steady: Vec<TimedPosition> = fixes
         .iter()
         .zip(&jumps)
         .filter(|(_, jump)| !**jump)
         .map(|(fix, _)| *fix)
         .collect();
-    let (_, rms_to_gps_without_jumps_m, _) =
-        error_to_gps(&run.trajectory, &steady, !options.use_gps);
-    let (_, online_rms_to_gps_m, online_median_to_gps_m) =
-        error_to_gps(&run.online_trajectory, &park.gps, !options.use_gps);
-    let (_, online_rms_to_gps_without_jumps_m, _) =
-        error_to_gps(&run.online_trajectory, &steady, !options.use_gps);
+    let smoothed = positions(&run.trajectory);
+    let online = positions(&run.online_trajectory);
+    let to_gps = error_to_gps(&smoothed, &fixes, align);
+    let online_to_gps = error_to_gps(&online, &fixes, align);
     let summary = VictoriaSlamSummary {
         wall_s: run.wall_s,
         steps: run.steps,
@@ -665,14 +606,14 @@ fn write_outputs(
         gps_used: options.use_gps,
         gps_fused: run.gps_fused,
         gps_rejected: run.gps_rejected,
-        gps_compared,
-        rms_to_gps_m,
-        median_to_gps_m,
+        gps_compared: to_gps.compared,
+        rms_to_gps_m: to_gps.rms_m,
+        median_to_gps_m: to_gps.median_m,
         gps_jumps: jumps.iter().filter(|&&jump| jump).count(),
-        rms_to_gps_without_jumps_m,
-        online_rms_to_gps_m,
-        online_median_to_gps_m,
-        online_rms_to_gps_without_jumps_m,
+        rms_to_gps_without_jumps_m: error_to_gps(&smoothed, &steady, align).rms_m,
+        online_rms_to_gps_m: online_to_gps.rms_m,
+        online_median_to_gps_m: online_to_gps.median_m,
+        online_rms_to_gps_without_jumps_m: error_to_gps(&online, &steady, align).rms_m,
         smoothing_s: run.smoothing_s,
         smoother_paired: run.smoother.paired,
         smoother_unpaired: run.smoother.unpaired,
@@ -705,8 +646,9 @@ mod tests {
             fix(40.0, 120.0), // 40 s outage at 3 m/s: plausible
             fix(40.2, 120.6),
         ];
+        let fixes: Vec<TimedPosition> = gps.iter().map(timed_fix).collect();
         assert_eq!(
-            receiver_jumps(&gps),
+            receiver_jumps(&fixes, GPS_JUMP_SPEED_MPS),
             [false, false, true, false, false, false]
         );
     }

@@ -7,7 +7,7 @@
 //!   ([`simulated_run`]).
 //! * [`arc_step`], [`arc_odometry`] ([`arc_model`]): the exact arc motion model the odometry
 //!   is meant for, and its inverse.
-//! * [`pose_nees`], [`chi_square_bounds`] ([`nees`]): the consistency test.
+//! * [`pose_nees`], [`chi_square_bounds`] ([`host::evaluation`]): the consistency test.
 //! * [`IdealEkf`] ([`ideal_ekf`]): the test's reference, EKF SLAM with the true data
 //!   association and every Jacobian at the true state.
 //!
@@ -46,14 +46,13 @@
 
 pub mod arc_model;
 pub mod ideal_ekf;
-pub mod nees;
 pub mod noise_model;
 pub mod simulate;
 pub mod simulated_run;
 
 pub use arc_model::{arc_odometry, arc_step};
+pub use host::evaluation::{chi_square_bounds, pose_nees};
 pub use ideal_ekf::{IdealEkf, IdealEkfError};
-pub use nees::{chi_square_bounds, pose_nees};
 pub use noise_model::{NoiseModel, NoiseModelError};
 pub use simulate::simulate;
 pub use simulated_run::{OdometryInput, SimObservation, SimStep, SimulatedRun};

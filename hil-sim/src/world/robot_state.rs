@@ -1,5 +1,7 @@
 //! The true kinematic state of the simulated robot at one instant.
 
+pub use host::geometry::wrap_angle_rad;
+
 use super::pose::SensorPose;
 
 /// The robot's pose and velocities in the world frame (see [`super`] for the frame).
@@ -36,17 +38,6 @@ impl From<RobotState> for SensorPose {
     /// The laser pose of [`RobotState::sensor_pose`].
     fn from(state: RobotState) -> SensorPose {
         state.sensor_pose()
-    }
-}
-
-/// `angle_rad` wrapped into `(-π, π]`.
-pub fn wrap_angle_rad(angle_rad: f64) -> f64 {
-    use core::f64::consts::{PI, TAU};
-    let wrapped = (angle_rad + PI).rem_euclid(TAU) - PI;
-    if wrapped <= -PI {
-        wrapped + TAU
-    } else {
-        wrapped
     }
 }
 

@@ -17,10 +17,16 @@
 //!   relation and their [`ErrorSummary`].
 //! * [`ReferenceRelations`] with [`ReferenceRelationOptions`]: relations built from a reference
 //!   trajectory (consecutive scans and revisits), for logs without published relations.
+//! * [`error_to_gps`] and [`receiver_jumps`]: a trajectory against GPS fixes where no ground
+//!   truth exists, with and without the receiver's own jumps.
+//! * [`pose_nees`] and [`chi_square_bounds`]: a filter's consistency (NEES) over Monte-Carlo
+//!   runs.
 //! * [`AgreementReport`]: which relations the log's own scans dispute (they line up far worse
 //!   at the true relative pose than at the estimate), and the error without them.
 
 mod error_summary;
+mod gps_error;
+mod nees;
 mod reference_relations;
 mod relation;
 mod relation_evaluation;
@@ -29,6 +35,8 @@ mod scan_agreement;
 mod trajectory;
 
 pub use error_summary::ErrorSummary;
+pub use gps_error::{GpsError, TimedPosition, error_to_gps, receiver_jumps};
+pub use nees::{chi_square_bounds, pose_nees};
 pub use reference_relations::{ReferenceRelationOptions, ReferenceRelations};
 pub use relation::Relation;
 pub use relation_evaluation::{PairingOptions, RelationEvaluation, evaluate_relations};

@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, Vector3};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use crate::world::robot_state::wrap_angle_rad;
+use crate::geometry::wrap_angle_rad;
 
 /// Largest asymmetry `|p_ij − p_ji|` [`pose_nees`] accepts, relative to the largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-6;
