@@ -7,7 +7,7 @@ use std::collections::VecDeque;
 
 use std::sync::Arc;
 
-use host::link::{LaserScan, LinkReader, SensorEvent, TimeSync};
+use host::link::{GpsFix, LaserScan, LinkReader, SensorEvent, TimeSync};
 use protocol::{Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, ScanMsg, StatusMsg};
 
 use super::estimator::Estimator;
@@ -127,7 +127,7 @@ impl HostSide {
                     self.estimator.on_event(&SensorEvent::Fix {
                         host_time_s: self.sync.clock().to_host_s(fix.stamp_us),
                         board_time_s: fix.stamp_us as f64 * 1e-6,
-                        fix,
+                        fix: GpsFix::from_msg(&fix),
                     });
                     self.fixes.push(GpsFixMsg { stamp_us: 0, ..fix });
                 }

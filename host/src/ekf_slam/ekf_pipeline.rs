@@ -15,7 +15,7 @@ use super::{
 use crate::geometry::Pose2;
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
 use crate::landmarks::{FeatureKind, FrontEndOptions, extract_features};
-use crate::link::SensorEvent;
+use crate::link::{GpsFix, SensorEvent};
 
 /// A time step longer than this (a gap in the scans) is not predicted across in one go: the
 /// constant-velocity guess would run away, s.
@@ -163,13 +163,13 @@ impl EkfPipeline {
         }
     }
 
-    fn on_fix(&mut self, board_time_s: f64, fix: &protocol::GpsFixMsg) {
-        let Some(position) = fix.position else {
+    fn on_fix(&mut self, board_time_s: f64, fix: &GpsFix) {
+        let Some([lat_deg, lon_deg]) = fix.lat_lon_deg else {
             return;
         };
         let frame = match self.frame {
             Some(frame) => frame,
-            None => match LocalFrame::new(position.lat_deg(), position.lon_deg(), 0.0) {
+            None => match LocalFrame::new(lat_deg, lon_deg, 0.0) {
                 Ok(frame) => *self.frame.insert(frame),
                 Err(_) => return,
             },

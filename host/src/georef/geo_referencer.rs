@@ -14,13 +14,13 @@
 //! the grid method uses this alignment only.
 
 use nalgebra::Matrix3;
-use protocol::GpsFixMsg;
 
 use super::{
     AlignmentPair, GeoRefError, GpsMeasurement, GpsMeasurementOptions, LocalFrame,
     RigidAlignment2d, RigidAlignmentOptions,
 };
 use crate::geometry::Pose2;
+use crate::link::GpsFix;
 
 /// Options of [`GeoReferencer`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -102,17 +102,13 @@ impl GeoReferencer {
     ///
     /// # Errors
     /// The fix's position or covariance cannot be expressed in the `enu` frame.
-    pub fn add_fix(&mut self, time_s: f64, fix: &GpsFixMsg) -> Result<bool, GeoRefError> {
-        let Some(position) = fix.position else {
+    pub fn add_fix(&mut self, time_s: f64, fix: &GpsFix) -> Result<bool, GeoRefError> {
+        let Some([lat_deg, lon_deg]) = fix.lat_lon_deg else {
             return Ok(false);
         };
         let frame = match self.frame {
             Some(frame) => frame,
-            None => *self.frame.insert(LocalFrame::new(
-                position.lat_deg(),
-                position.lon_deg(),
-                0.0,
-            )?),
+            None => *self.frame.insert(LocalFrame::new(lat_deg, lon_deg, 0.0)?),
         };
         let measurement = GpsMeasurement::from_fix(fix, &frame, &self.options.gps)?;
         self.fixes.push(TimedFix {
@@ -227,7 +223,7 @@ fn pose_at(trajectory: &[(f64, Pose2)], time_s: f64, max_gap_s: f64) -> Option<P
 
 #[cfg(test)]
 mod tests {
-    use protocol::{FixQuality, FixSource, Position};
+    use protocol::{FixQuality, FixSource, GpsFixMsg, Position};
 
     use super::*;
 
@@ -291,7 +287,8 @@ mod tests {
             if k == 40 {
                 point[0] += 60.0;
             }
-            assert!(georef.add_fix(*t, &fix_at(&frame, point)).expect("fix"));
+            let fix = GpsFix::from_msg(&fix_at(&frame, point));
+            assert!(georef.add_fix(*t, &fix).expect("fix"));
         }
         let alignment = georef.align(&trajectory).expect("aligned");
         assert_eq!(alignment.jumps, 1);
@@ -309,9 +306,8 @@ mod tests {
             .collect();
         let mut georef = GeoReferencer::new(GeoReferencerOptions::default(), Some(DATUM));
         for (t, pose) in &trajectory {
-            georef
-                .add_fix(*t, &fix_at(&frame, [pose.x_m, pose.y_m]))
-                .expect("fix");
+            let fix = GpsFix::from_msg(&fix_at(&frame, [pose.x_m, pose.y_m]));
+            georef.add_fix(*t, &fix).expect("fix");
         }
         assert_eq!(georef.align(&trajectory), None);
     }
@@ -319,7 +315,11 @@ mod tests {
     #[test]
     fn a_fix_without_position_is_not_kept() {
         let mut georef = GeoReferencer::new(GeoReferencerOptions::default(), None);
-        assert!(!georef.add_fix(0.0, &no_fix()).expect("no error"));
+        assert!(
+            !georef
+                .add_fix(0.0, &GpsFix::from_msg(&no_fix()))
+                .expect("no error")
+        );
         assert_eq!(georef.fixes(), 0);
         assert!(georef.frame().is_none());
     }

@@ -1,8 +1,8 @@
 //! A GPS fix as a 2D position in the `enu` frame with its 2×2 covariance.
 //!
 //! The position is the fix's latitude and longitude converted by a [`LocalFrame`]; the height
-//! used for the conversion is the ellipsoidal one, `alt_msl_mm + geoid_sep_mm` (the geoid
-//! separation taken as zero when missing, the datum height when the altitude is missing). The
+//! used for the conversion is the ellipsoidal one ([`GpsFix::height_m`], the datum height when
+//! the altitude is missing). The
 //! height barely matters for the horizontal result: an error of `h` metres shifts a fix `d`
 //! metres from the datum by about `h · d / 6.4e6` metres.
 //!
@@ -17,14 +17,15 @@
 //!    `σ_e² = σ_n² = (HDOP · UERE)² / 2`.
 //!
 //! A GST field of 0 mm, or an HDOP of 0, is read as "not reported" (receivers fill empty fields
-//! with zeros), and the next source is used. The GST sigmas are given in the local frame at the
+//! with zeros; [`GpsFix`] drops them), and the next source is used. The GST sigmas are given in the local frame at the
 //! fix; the meridian convergence between it and the datum's frame (under 0.1° within 10 km) is
 //! neglected.
 
 use nalgebra::Matrix2;
-use protocol::{FixQuality, GpsFixMsg, GstSigmas};
+use protocol::FixQuality;
 
 use super::{GeoRefError, LocalFrame};
+use crate::link::{ErrorEllipse, GpsFix};
 
 /// How GPS reports become measurements.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,23 +90,18 @@ impl GpsMeasurement {
     /// * [`GeoRefError::InvalidOptions`] for a UERE or assumed HDOP that is not finite and
     ///   positive.
     pub fn from_fix(
-        fix: &GpsFixMsg,
+        fix: &GpsFix,
         frame: &LocalFrame,
         options: &GpsMeasurementOptions,
     ) -> Result<Self, GeoRefError> {
         check_options(options)?;
-        let position = match (fix.quality, fix.position) {
+        let [lat_deg, lon_deg] = match (fix.quality, fix.lat_lon_deg) {
             (FixQuality::Invalid, _) | (_, None) => return Err(GeoRefError::NoFix),
-            (_, Some(position)) => position,
+            (_, Some(lat_lon_deg)) => lat_lon_deg,
         };
         let (covariance_in_enu_m2, covariance_source) = fix_covariance_m2(fix, options)?;
-        let alt_m = match fix.alt_msl_mm {
-            Some(alt_msl_mm) => {
-                f64::from(alt_msl_mm) / 1000.0 + f64::from(fix.geoid_sep_mm.unwrap_or(0)) / 1000.0
-            }
-            None => frame.datum_alt_m(),
-        };
-        let [east_m, north_m, _] = frame.to_enu_m(position.lat_deg(), position.lon_deg(), alt_m)?;
+        let alt_m = fix.height_m.unwrap_or_else(|| frame.datum_alt_m());
+        let [east_m, north_m, _] = frame.to_enu_m(lat_deg, lon_deg, alt_m)?;
         Ok(GpsMeasurement {
             position_in_enu_m: [east_m, north_m],
             covariance_in_enu_m2,
@@ -158,28 +154,23 @@ fn check_options(options: &GpsMeasurementOptions) -> Result<(), GeoRefError> {
 
 /// The covariance of `fix` in east-north order, m², from its best source.
 fn fix_covariance_m2(
-    fix: &GpsFixMsg,
+    fix: &GpsFix,
     options: &GpsMeasurementOptions,
 ) -> Result<(Matrix2<f64>, CovarianceSource), GeoRefError> {
-    if let Some(gst) = &fix.gst {
-        if let Some(covariance) = gst_ellipse_covariance_m2(gst) {
-            return Ok((covariance, CovarianceSource::GstEllipse));
-        }
-        if let (Some(lat_sigma_m), Some(lon_sigma_m)) = (
-            reported_mm_as_m(gst.lat_sigma_mm),
-            reported_mm_as_m(gst.lon_sigma_mm),
-        ) {
-            let covariance = Matrix2::new(
-                lon_sigma_m * lon_sigma_m,
-                0.0,
-                0.0,
-                lat_sigma_m * lat_sigma_m,
-            );
-            return Ok((covariance, CovarianceSource::GstLatLon));
-        }
+    if let Some(ellipse) = &fix.error_ellipse {
+        return Ok((ellipse_covariance_m2(ellipse), CovarianceSource::GstEllipse));
     }
-    let (hdop, source) = match fix.hdop_centi.filter(|&centi| centi > 0) {
-        Some(hdop_centi) => (f64::from(hdop_centi) / 100.0, CovarianceSource::Hdop),
+    if let Some([lat_sigma_m, lon_sigma_m]) = fix.lat_lon_sigma_m {
+        let covariance = Matrix2::new(
+            lon_sigma_m * lon_sigma_m,
+            0.0,
+            0.0,
+            lat_sigma_m * lat_sigma_m,
+        );
+        return Ok((covariance, CovarianceSource::GstLatLon));
+    }
+    let (hdop, source) = match fix.hdop {
+        Some(hdop) => (hdop, CovarianceSource::Hdop),
         None => match options.assumed_hdop {
             Some(hdop) => (hdop, CovarianceSource::AssumedHdop),
             None => return Err(GeoRefError::NoAccuracy),
@@ -189,31 +180,20 @@ fn fix_covariance_m2(
     Ok((Matrix2::identity() * (drms_m * drms_m / 2.0), source))
 }
 
-/// The covariance of the GST error ellipse, east-north order, m²; `None` unless both
-/// semi-axes and the orientation are reported.
-fn gst_ellipse_covariance_m2(gst: &GstSigmas) -> Option<Matrix2<f64>> {
-    let major_m = reported_mm_as_m(gst.semi_major_mm)?;
-    let minor_m = reported_mm_as_m(gst.semi_minor_mm)?;
-    // Orientation 0 is a real direction (north), so only its absence counts here.
-    let orientation_rad = (f64::from(gst.orientation_cdeg?) / 100.0).to_radians();
-    let (sin, cos) = orientation_rad.sin_cos();
+/// The covariance of the GST error ellipse, east-north order, m².
+fn ellipse_covariance_m2(ellipse: &ErrorEllipse) -> Matrix2<f64> {
+    let (major_m, minor_m) = (ellipse.semi_major_m, ellipse.semi_minor_m);
+    let (sin, cos) = ellipse.orientation_rad.sin_cos();
     // Unit vectors of the major axis (clockwise from north) and the minor axis, east-north.
     let u = nalgebra::Vector2::new(sin, cos);
     let v = nalgebra::Vector2::new(cos, -sin);
-    Some(u * u.transpose() * (major_m * major_m) + v * v.transpose() * (minor_m * minor_m))
-}
-
-/// A GST field in millimetres as metres; `None` when missing or zero (not reported).
-fn reported_mm_as_m(value_mm: Option<u32>) -> Option<f64> {
-    value_mm
-        .filter(|&mm| mm > 0)
-        .map(|mm| f64::from(mm) / 1000.0)
+    u * u.transpose() * (major_m * major_m) + v * v.transpose() * (minor_m * minor_m)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use protocol::{FixSource, Position};
+    use protocol::{FixSource, GpsFixMsg, GstSigmas, Position};
 
     fn frame() -> LocalFrame {
         LocalFrame::new(47.3, 8.5, 400.0).unwrap()
@@ -248,9 +228,12 @@ mod tests {
 
     #[test]
     fn test_position_matches_local_frame() {
-        let measurement =
-            GpsMeasurement::from_fix(&gga_fix(), &frame(), &GpsMeasurementOptions::default())
-                .unwrap();
+        let measurement = GpsMeasurement::from_fix(
+            &GpsFix::from_msg(&gga_fix()),
+            &frame(),
+            &GpsMeasurementOptions::default(),
+        )
+        .unwrap();
         let [east_m, north_m, _] = frame().to_enu_m(47.316_666_667, 8.5, 400.0).unwrap();
         assert!((measurement.position_in_enu_m[0] - east_m).abs() < 1e-9);
         assert!((measurement.position_in_enu_m[1] - north_m).abs() < 1e-9);
@@ -259,9 +242,12 @@ mod tests {
 
     #[test]
     fn test_hdop_covariance() {
-        let measurement =
-            GpsMeasurement::from_fix(&gga_fix(), &frame(), &GpsMeasurementOptions::default())
-                .unwrap();
+        let measurement = GpsMeasurement::from_fix(
+            &GpsFix::from_msg(&gga_fix()),
+            &frame(),
+            &GpsMeasurementOptions::default(),
+        )
+        .unwrap();
         assert_eq!(measurement.covariance_source, CovarianceSource::Hdop);
         // DRMS = 1.2 * 3 m = 3.6 m, split over two axes: 6.48 m² each.
         assert_matrix_close(measurement.covariance_in_enu_m2, Matrix2::identity() * 6.48);
@@ -276,8 +262,12 @@ mod tests {
             semi_major_mm: Some(0),
             ..GstSigmas::default()
         });
-        let measurement =
-            GpsMeasurement::from_fix(&fix, &frame(), &GpsMeasurementOptions::default()).unwrap();
+        let measurement = GpsMeasurement::from_fix(
+            &GpsFix::from_msg(&fix),
+            &frame(),
+            &GpsMeasurementOptions::default(),
+        )
+        .unwrap();
         assert_eq!(measurement.covariance_source, CovarianceSource::GstLatLon);
         assert_matrix_close(
             measurement.covariance_in_enu_m2,
@@ -297,8 +287,12 @@ mod tests {
             lon_sigma_mm: Some(1_581),
             ..GstSigmas::default()
         });
-        let measurement =
-            GpsMeasurement::from_fix(&fix, &frame(), &GpsMeasurementOptions::default()).unwrap();
+        let measurement = GpsMeasurement::from_fix(
+            &GpsFix::from_msg(&fix),
+            &frame(),
+            &GpsMeasurementOptions::default(),
+        )
+        .unwrap();
         assert_eq!(measurement.covariance_source, CovarianceSource::GstEllipse);
         // Variances (4 + 1) / 2 on each axis, covariance (4 - 1) / 2 (east and north grow
         // together along a north-east axis).
@@ -313,8 +307,12 @@ mod tests {
             orientation_cdeg: Some(0),
             ..GstSigmas::default()
         });
-        let measurement =
-            GpsMeasurement::from_fix(&fix, &frame(), &GpsMeasurementOptions::default()).unwrap();
+        let measurement = GpsMeasurement::from_fix(
+            &GpsFix::from_msg(&fix),
+            &frame(),
+            &GpsMeasurementOptions::default(),
+        )
+        .unwrap();
         assert_matrix_close(
             measurement.covariance_in_enu_m2,
             Matrix2::new(1.0, 0.0, 0.0, 4.0),
@@ -327,13 +325,13 @@ mod tests {
         let mut fix = gga_fix();
         fix.quality = FixQuality::Invalid;
         assert!(matches!(
-            GpsMeasurement::from_fix(&fix, &frame(), &options),
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&fix), &frame(), &options),
             Err(GeoRefError::NoFix)
         ));
         let mut fix = gga_fix();
         fix.position = None;
         assert!(matches!(
-            GpsMeasurement::from_fix(&fix, &frame(), &options),
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&fix), &frame(), &options),
             Err(GeoRefError::NoFix)
         ));
         let mut fix = gga_fix();
@@ -342,7 +340,7 @@ mod tests {
             lon_ndeg: 0,
         });
         assert!(matches!(
-            GpsMeasurement::from_fix(&fix, &frame(), &options),
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&fix), &frame(), &options),
             Err(GeoRefError::InvalidLatitude { .. })
         ));
         let mut fix = gga_fix();
@@ -351,7 +349,7 @@ mod tests {
             lon_ndeg: i64::MIN,
         });
         assert!(matches!(
-            GpsMeasurement::from_fix(&fix, &frame(), &options),
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&fix), &frame(), &options),
             Err(GeoRefError::InvalidLongitude { .. })
         ));
     }
@@ -363,14 +361,19 @@ mod tests {
         fix.hdop_centi = None;
         fix.alt_msl_mm = None;
         assert!(matches!(
-            GpsMeasurement::from_fix(&fix, &frame(), &GpsMeasurementOptions::default()),
+            GpsMeasurement::from_fix(
+                &GpsFix::from_msg(&fix),
+                &frame(),
+                &GpsMeasurementOptions::default()
+            ),
             Err(GeoRefError::NoAccuracy)
         ));
         let options = GpsMeasurementOptions {
             assumed_hdop: Some(2.0),
             ..GpsMeasurementOptions::default()
         };
-        let measurement = GpsMeasurement::from_fix(&fix, &frame(), &options).unwrap();
+        let measurement =
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&fix), &frame(), &options).unwrap();
         assert_eq!(measurement.covariance_source, CovarianceSource::AssumedHdop);
         assert_matrix_close(measurement.covariance_in_enu_m2, Matrix2::identity() * 18.0);
         let bad = GpsMeasurementOptions {
@@ -378,7 +381,7 @@ mod tests {
             ..GpsMeasurementOptions::default()
         };
         assert!(matches!(
-            GpsMeasurement::from_fix(&gga_fix(), &frame(), &bad),
+            GpsMeasurement::from_fix(&GpsFix::from_msg(&gga_fix()), &frame(), &bad),
             Err(GeoRefError::InvalidOptions(_))
         ));
     }

@@ -3,6 +3,7 @@
 //! * [`clock_sync::ClockSync`]: maps the board's monotonic microseconds to host seconds from
 //!   time-sync round trips.
 //! * [`laser_scan::LaserScan`]: a scan message's range words in metres, in the sensor frame.
+//! * [`GpsFix`]: a fix report in degrees, metres and radians, converted once at the edge.
 //! * [`counters::LinkCounters`]: what one link has received and lost, for the live view.
 //! * [`session::LinkSession`]: one link as the pipelines see it: bytes in, time-synced
 //!   [`SensorEvent`]s in SI units out, the same for the live run and the replay of a
@@ -13,6 +14,7 @@
 
 pub mod clock_sync;
 mod counters;
+mod gps_fix;
 pub mod laser_scan;
 pub mod reader;
 pub mod session;
@@ -20,6 +22,7 @@ pub mod time_sync;
 
 pub use clock_sync::ClockSync;
 pub use counters::LinkCounters;
+pub use gps_fix::{ErrorEllipse, GpsFix};
 pub use laser_scan::LaserScan;
 pub use reader::{LinkReader, LinkStats};
 pub use session::{Decoded, LinkSession, SensorEvent};

@@ -4,12 +4,10 @@
 
 use std::sync::Arc;
 
-use protocol::{
-    Decoder, Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, Received, StatusMsg,
-};
+use protocol::{Decoder, Encoder, MAX_WIRE_LEN, MeasuringMode, Message, Received, StatusMsg};
 
 use super::LinkCounters;
-use super::{LaserScan, LinkReader, TimeSync};
+use super::{GpsFix, LaserScan, LinkReader, TimeSync};
 
 /// A sensor reading for the SLAM pipelines, in SI units and host time.
 #[derive(Debug, Clone)]
@@ -32,8 +30,8 @@ pub enum SensorEvent {
         host_time_s: f64,
         /// Board time, seconds since the board started.
         board_time_s: f64,
-        /// The fix as the board parsed it.
-        fix: GpsFixMsg,
+        /// The fix as the board parsed it, in SI units.
+        fix: GpsFix,
     },
 }
 
@@ -124,7 +122,7 @@ impl LinkSession {
                     decoded.events.push(SensorEvent::Fix {
                         host_time_s: host_time(fix.stamp_us),
                         board_time_s: fix.stamp_us as f64 * 1e-6,
-                        fix: *fix,
+                        fix: GpsFix::from_msg(fix),
                     });
                 }
                 Message::Status(status) => {
@@ -262,7 +260,7 @@ mod tests {
     }
 
     fn fix(source: protocol::FixSource, num_sats: Option<u8>) -> Message {
-        Message::GpsFix(GpsFixMsg {
+        Message::GpsFix(protocol::GpsFixMsg {
             stamp_us: 1,
             source,
             talker: *b"GP",
