@@ -23,7 +23,7 @@ use headless_chrome::browser::tab::point::Point;
 use headless_chrome::protocol::cdp::Page::CaptureScreenshotFormatOption;
 use headless_chrome::{Browser, LaunchOptions, Tab};
 use robot_host::state::{GridView, ImageView, LandmarkView};
-use robot_host::web::{WebContext, WebServer};
+use robot_host::web::{AccessPolicy, WebContext, WebLimits, WebServer};
 use robot_host::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };
@@ -458,6 +458,8 @@ impl Session {
                 state: shared.clone(),
                 goal: resolver.clone(),
                 image_png: image_png.map(Arc::new),
+                access: AccessPolicy::open(),
+                limits: WebLimits::default(),
             },
         )?;
         let profile = tempfile::tempdir()?;

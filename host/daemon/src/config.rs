@@ -1,7 +1,7 @@
 //! The daemon's configuration: one TOML file whose every field has a default that works, and
 //! which command-line flags override field by field.
 //!
-//! `host/config/robot-host.toml` is the documented default file; a test checks that it
+//! `host/daemon/config/robot-host.toml` is the documented default file; a test checks that it
 //! parses to [`DaemonConfig::default`].
 
 use std::net::SocketAddr;
@@ -174,6 +174,14 @@ pub struct WebConfig {
     pub listen: SocketAddr,
     /// Address of the Foxglove WebSocket server; absent: no live Foxglove stream.
     pub foxglove_listen: Option<SocketAddr>,
+    /// The token that requests changing the robot's state (the goal) must carry, as
+    /// `Authorization: Bearer TOKEN`. When absent and `listen` is not a loopback address, one
+    /// is generated at start and printed; on loopback, absent means no token.
+    pub token: Option<String>,
+    /// Whether the read-only views (`GET /api/...`) stay open without the token.
+    pub open_read_only: bool,
+    /// Connections the web view serves at once; more are closed as they arrive.
+    pub max_connections: usize,
 }
 
 impl Default for WebConfig {
@@ -182,9 +190,15 @@ impl Default for WebConfig {
             enabled: true,
             listen: SocketAddr::from(([127, 0, 0, 1], 8080)),
             foxglove_listen: Some(SocketAddr::from(([127, 0, 0, 1], 8765))),
+            token: None,
+            open_read_only: true,
+            max_connections: 64,
         }
     }
 }
+
+/// The shortest token accepted from the configuration, characters.
+pub const MIN_TOKEN_LEN: usize = 16;
 
 /// The MCAP recording.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -311,6 +325,19 @@ impl DaemonConfig {
         positive("georef.goal_margin_m", self.georef.goal_margin_m)?;
         if self.link.baud == 0 {
             return Err(ConfigError::Invalid("link.baud must not be 0".into()));
+        }
+        if let Some(token) = &self.web.token
+            && (token.chars().count() < MIN_TOKEN_LEN
+                || !token.chars().all(|c| c.is_ascii_graphic()))
+        {
+            return Err(ConfigError::Invalid(format!(
+                "web.token must be at least {MIN_TOKEN_LEN} printable characters without spaces"
+            )));
+        }
+        if self.web.max_connections == 0 {
+            return Err(ConfigError::Invalid(
+                "web.max_connections must be at least 1".into(),
+            ));
         }
         if self.slam.ekf_landmarks_per_local_map < 2 {
             return Err(ConfigError::Invalid(

@@ -135,6 +135,7 @@ pub struct Daemon {
     recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
     live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
     web: Option<crate::web::WebServer>,
+    web_token: Option<String>,
 }
 
 impl Daemon {
@@ -255,7 +256,10 @@ impl Daemon {
             None => None,
         };
 
+        let mut web_token = None;
         let web = if config.web.enabled {
+            let access = access_policy(&config.web)?;
+            web_token.clone_from(&access.token);
             let resolver = crate::goal::MapGoalResolver::new(
                 state.clone(),
                 image.clone(),
@@ -276,6 +280,11 @@ impl Daemon {
                         state: state.clone(),
                         goal: Arc::new(resolver),
                         image_png,
+                        access,
+                        limits: crate::web::WebLimits {
+                            max_connections: config.web.max_connections,
+                            ..crate::web::WebLimits::default()
+                        },
                     },
                 )
                 .map_err(|e| {
@@ -295,7 +304,13 @@ impl Daemon {
             recorder,
             live,
             web,
+            web_token,
         })
+    }
+
+    /// The token the web view asks of state-changing requests, when it asks one.
+    pub fn web_token(&self) -> Option<&str> {
+        self.web_token.as_deref()
     }
 
     /// The live state.
@@ -364,6 +379,28 @@ fn spawn<T: Send + 'static>(
         .name(name.into())
         .spawn(f)
         .map_err(|e| DaemonError::Serve(format!("cannot start the {name} thread: {e}")))
+}
+
+/// The web view's access rule: the configured token; beyond loopback without one, a new one.
+fn access_policy(web: &crate::config::WebConfig) -> Result<crate::web::AccessPolicy, DaemonError> {
+    let token = match &web.token {
+        Some(token) => Some(token.clone()),
+        None if !web.listen.ip().is_loopback() => {
+            let token = crate::web::generate_token()
+                .map_err(|e| DaemonError::Serve(format!("cannot make a web view token: {e}")))?;
+            tracing::warn!(
+                listen = %web.listen,
+                "the web view is open beyond this machine: setting the goal needs the token \
+                 printed below (or set [web] token)"
+            );
+            Some(token)
+        }
+        None => None,
+    };
+    Ok(crate::web::AccessPolicy {
+        token,
+        open_read_only: web.open_read_only,
+    })
 }
 
 fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonError> {

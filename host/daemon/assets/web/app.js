@@ -7,6 +7,9 @@
 // The map is the occupancy grid (from /api/map.png, placed by its origin and resolution), the
 // landmarks, the trajectory, the pose with its 95 % uncertainty ellipse, and the goal.
 // A click on the image POSTs that pixel to /api/goal and shows the answer or the error.
+// A daemon serving beyond loopback wants its token for the goal (and, if so configured, for
+// every /api/ request): the page asks for it once, keeps it in the browser's storage and
+// sends it as `Authorization: Bearer TOKEN`.
 //
 // Frames: "map" is the SLAM map frame in metres; "image" is the image's pixels, column and row
 // from its top-left outer corner; "canvas" is CSS pixels from the canvas's top-left corner.
@@ -48,6 +51,7 @@ const view = {
   gridLoading: null,
   canvasFromImage: null,
   canvasFromMap: null,
+  askingToken: false,
 };
 
 // ---- Affine maps ------------------------------------------------------------------------
@@ -333,22 +337,63 @@ function updateNote(state) {
   document.getElementById('goal-hint').hidden = !state || !state.image;
 }
 
+// ---- Access -----------------------------------------------------------------------------
+
+const TOKEN_KEY = 'robot-host-token';
+
+// fetch() with the stored token; on 401 asks for the token once and tries again.
+async function api(path, options = {}) {
+  const send = () => {
+    const token = window.localStorage.getItem(TOKEN_KEY);
+    const headers = { ...(options.headers || {}) };
+    if (token) headers.Authorization = `Bearer ${token}`;
+    return fetch(path, { ...options, headers });
+  };
+  const response = await send();
+  if (response.status !== 401 || view.askingToken) return response;
+  view.askingToken = true;
+  try {
+    const token = window.prompt(
+      'This daemon needs its access token (printed when it started, or [web] token in its configuration):');
+    if (!token) return response;
+    window.localStorage.setItem(TOKEN_KEY, token.trim());
+    return await send();
+  } finally {
+    view.askingToken = false;
+  }
+}
+
 // ---- Pictures ---------------------------------------------------------------------------
+
+// An image from the API, fetched with the token, as an <img> once decoded.
+async function loadPicture(path) {
+  const response = await api(path, { cache: 'no-store' });
+  if (!response.ok) throw new Error(`HTTP ${response.status}`);
+  const url = URL.createObjectURL(await response.blob());
+  const picture = new Image();
+  try {
+    await new Promise((resolve, reject) => {
+      picture.onload = resolve;
+      picture.onerror = () => reject(new Error('not an image'));
+      picture.src = url;
+    });
+  } finally {
+    URL.revokeObjectURL(url);
+  }
+  return picture;
+}
 
 function ensureImage(state) {
   if (!state.image || view.image || view.imageLoading) return;
   view.imageLoading = true;
-  const picture = new Image();
-  picture.onload = () => {
+  loadPicture('/api/image.png').then((picture) => {
     view.image = picture;
     view.imageLoading = false;
     draw();
-  };
-  picture.onerror = () => {
+  }, () => {
     document.getElementById('view-note').textContent = 'Cannot load the image; retrying…';
     setTimeout(() => { view.imageLoading = false; }, 5000);
-  };
-  picture.src = '/api/image.png';
+  });
 }
 
 function ensureGrid(state) {
@@ -360,14 +405,11 @@ function ensureGrid(state) {
   if ((view.grid && view.grid.revision === revision) || view.gridLoading === revision) return;
   view.gridLoading = revision;
   const placement = state.grid;
-  const picture = new Image();
-  picture.onload = () => {
+  loadPicture(`/api/map.png?revision=${encodeURIComponent(revision)}`).then((picture) => {
     view.grid = { revision, placement, picture: withoutUnknownCells(picture) };
     view.gridLoading = null;
     draw();
-  };
-  picture.onerror = () => { view.gridLoading = null; };
-  picture.src = `/api/map.png?revision=${encodeURIComponent(revision)}`;
+  }, () => { view.gridLoading = null; });
 }
 
 // The grid with unknown cells transparent and free cells faint, so the image shows through.
@@ -448,7 +490,7 @@ function setLinkStatus(live, message) {
 
 async function poll() {
   try {
-    const response = await fetch('/api/state', { cache: 'no-store' });
+    const response = await api('/api/state', { cache: 'no-store' });
     if (!response.ok) throw new Error(`HTTP ${response.status}`);
     view.state = await response.json();
     setLinkStatus(true, 'live');
@@ -466,7 +508,7 @@ async function poll() {
 async function setGoal(request) {
   showGoalError('');
   try {
-    const response = await fetch('/api/goal', {
+    const response = await api('/api/goal', {
       method: 'POST',
       headers: { 'Content-Type': 'application/json' },
       body: JSON.stringify(request),

@@ -15,10 +15,14 @@
 //! | `POST /api/goal` | `{"pixel_x", "pixel_y"}` or `{"lat_deg", "lon_deg"}` → [`GoalInMap`](crate::GoalInMap), also stored as the state's goal; 400 for a body that is no goal, 422 for a goal the resolver refuses |
 //!
 //! Every API error is a JSON object `{"error": "..."}`; unknown `/api/` paths answer 404 and
-//! wrong methods 405 that way.
+//! wrong methods 405 that way. With a token ([`AccessPolicy`], required when the daemon
+//! listens beyond loopback), `POST` requests without it answer 401, and so do `GET /api/`
+//! requests unless read-only views are kept open. Connections, timeouts and body sizes are
+//! bounded ([`WebLimits`]).
 //!
 //! [`WebServer::start`] serves it all on its own thread with its own tokio runtime.
 
+mod access;
 mod api_error;
 mod assets;
 mod goal_body;
@@ -27,8 +31,9 @@ mod routes;
 mod server;
 mod state_json;
 
+pub use access::{AccessPolicy, generate_token};
 pub use map_render::{MapRenderError, render_map_png};
-pub use server::{DRAIN_LIMIT, WebContext, WebError, WebServer};
+pub use server::{DRAIN_LIMIT, WebContext, WebError, WebLimits, WebServer};
 
 #[cfg(test)]
 mod tests;

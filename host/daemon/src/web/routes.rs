@@ -4,13 +4,17 @@
 
 use std::sync::{Arc, PoisonError, RwLockReadGuard};
 
+use std::time::Duration;
+
 use axum::body::Bytes;
-use axum::extract::State;
+use axum::extract::{DefaultBodyLimit, Request, State};
 use axum::http::{StatusCode, Uri, header};
+use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{any, get, post};
 use axum::{Json, Router};
 
+use super::access::require_token;
 use super::api_error::ApiError;
 use super::assets::{APP_JS, INDEX_HTML, STYLE_CSS};
 use super::goal_body::parse_goal_body;
@@ -22,8 +26,11 @@ use crate::LiveState;
 /// Longer side of the landmark map drawn for `/api/map.png`, pixels.
 const MAP_RENDER_SIDE_PX: u32 = 800;
 
-/// The router serving the page and the API from `context`.
+/// The router serving the page and the API from `context`, behind its access policy and
+/// limits.
 pub(crate) fn router(context: Arc<WebContext>) -> Router {
+    let access = Arc::new(context.access.clone());
+    let limits = context.limits;
     Router::new()
         .route("/", get(|| async { INDEX_HTML }))
         .route("/app.js", get(|| async { APP_JS }))
@@ -36,6 +43,23 @@ pub(crate) fn router(context: Arc<WebContext>) -> Router {
         .route("/api/{*rest}", any(api_not_found))
         .fallback(page_not_found)
         .with_state(context)
+        .layer(DefaultBodyLimit::max(limits.max_body_bytes))
+        .layer(middleware::from_fn_with_state(access, require_token))
+        .layer(middleware::from_fn(move |request: Request, next: Next| {
+            within_deadline(limits.request_timeout, request, next)
+        }))
+}
+
+/// Answers `408` to a request not answered within `limit` (a slow body, a stalled client).
+async fn within_deadline(limit: Duration, request: Request, next: Next) -> Response {
+    match tokio::time::timeout(limit, next.run(request)).await {
+        Ok(response) => response,
+        Err(_) => ApiError::new(
+            StatusCode::REQUEST_TIMEOUT,
+            format!("the request was not complete within {} s", limit.as_secs()),
+        )
+        .into_response(),
+    }
 }
 
 /// Reads the live state; a lock poisoned by a panicking writer still holds the last values.

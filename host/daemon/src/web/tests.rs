@@ -5,7 +5,7 @@ use std::sync::{Arc, PoisonError};
 
 use serde_json::{Value, json};
 
-use super::{WebContext, WebError, WebServer};
+use super::{AccessPolicy, WebContext, WebError, WebLimits, WebServer};
 use crate::state::{GridView, ImageView, LandmarkView};
 use crate::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
@@ -114,9 +114,21 @@ fn filled_state() -> LiveState {
 
 /// A server on a free port of 127.0.0.1.
 fn serve(state: LiveState, image_png: Option<Vec<u8>>) -> (WebServer, SharedState) {
+    serve_with(state, image_png, AccessPolicy::open(), WebLimits::default())
+}
+
+/// A server on a free port of 127.0.0.1 with `access` and `limits`.
+fn serve_with(
+    state: LiveState,
+    image_png: Option<Vec<u8>>,
+    access: AccessPolicy,
+    limits: WebLimits,
+) -> (WebServer, SharedState) {
     let shared = LiveState::shared();
     *shared.write().unwrap() = state;
     let context = WebContext {
+        access,
+        limits,
         state: shared.clone(),
         goal: Arc::new(AffineResolver),
         image_png: image_png.map(Arc::new),
@@ -392,6 +404,8 @@ fn test_page_and_its_files_are_served() {
 fn test_taken_address_is_a_bind_error() {
     let (server, _state) = serve(filled_state(), None);
     let context = WebContext {
+        access: AccessPolicy::open(),
+        limits: WebLimits::default(),
         state: LiveState::shared(),
         goal: Arc::new(AffineResolver),
         image_png: None,
@@ -411,4 +425,123 @@ fn test_stop_closes_the_port() {
     assert_eq!(get(&server, "/api/state").status, 200);
     server.stop();
     assert!(std::net::TcpStream::connect(addr).is_err());
+}
+
+const TOKEN: &str = "a-token-of-sixteen-or-more";
+
+fn guarded(open_read_only: bool) -> AccessPolicy {
+    AccessPolicy {
+        token: Some(TOKEN.into()),
+        open_read_only,
+    }
+}
+
+fn post_goal_with(server: &WebServer, body: &str, authorization: &str) -> Answer {
+    let url = format!("http://{}/api/goal", server.local_addr());
+    let request = client()
+        .post(&url)
+        .header("content-type", "application/json")
+        .header("authorization", authorization);
+    answer(request.send(body).unwrap())
+}
+
+#[test]
+fn test_a_goal_without_the_token_is_401_and_changes_nothing() {
+    let (server, state) = serve_with(filled_state(), None, guarded(true), WebLimits::default());
+    let body = r#"{"pixel_x": 220, "pixel_y": 130}"#;
+    let refused = post_goal(&server, body);
+    assert_eq!(refused.status, 401);
+    assert!(refused.error().contains("token"), "{}", refused.error());
+    let wrong = post_goal_with(&server, body, "Bearer a-token-of-sixteen-or-mord");
+    assert_eq!(wrong.status, 401);
+    assert_eq!(stored_goal(&state), None);
+    let accepted = post_goal_with(&server, body, &format!("Bearer {TOKEN}"));
+    assert_eq!(accepted.status, 200);
+    assert!(stored_goal(&state).is_some());
+    // The read-only views and the page stay open.
+    assert_eq!(get(&server, "/api/state").status, 200);
+    assert_eq!(get(&server, "/").status, 200);
+    server.stop();
+}
+
+#[test]
+fn test_closed_read_only_views_need_the_token_but_not_the_page() {
+    let (server, _) = serve_with(filled_state(), None, guarded(false), WebLimits::default());
+    let answer = get(&server, "/api/state");
+    assert_eq!(answer.status, 401);
+    assert_eq!(get(&server, "/app.js").status, 200);
+    let url = format!("http://{}/api/state", server.local_addr());
+    let with_token = client()
+        .get(&url)
+        .header("authorization", &format!("Bearer {TOKEN}"))
+        .call()
+        .unwrap();
+    assert_eq!(with_token.status().as_u16(), 200);
+    server.stop();
+}
+
+#[test]
+fn test_a_body_over_the_limit_is_413() {
+    let limits = WebLimits {
+        max_body_bytes: 64,
+        ..WebLimits::default()
+    };
+    let (server, state) = serve_with(filled_state(), None, AccessPolicy::open(), limits);
+    let padding = " ".repeat(200);
+    let answer = post_goal(
+        &server,
+        &format!("{{\"pixel_x\": 220, \"pixel_y\": 130{padding}}}"),
+    );
+    assert_eq!(answer.status, 413);
+    assert_eq!(stored_goal(&state), None);
+    server.stop();
+}
+
+#[test]
+fn test_idle_and_surplus_connections_are_closed() {
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+    use std::time::{Duration, Instant};
+
+    let limits = WebLimits {
+        max_connections: 2,
+        header_read_timeout: Duration::from_millis(300),
+        ..WebLimits::default()
+    };
+    let (server, _) = serve_with(filled_state(), None, AccessPolicy::open(), limits);
+    let addr = server.local_addr();
+    // Two connections that never send a whole request hold both slots…
+    let mut idle: Vec<TcpStream> = (0..2)
+        .map(|_| {
+            let mut stream = TcpStream::connect(addr).unwrap();
+            stream.write_all(b"GET /api/state HTTP/1.1\r\n").unwrap();
+            stream
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(50));
+    // …so a third is closed at once, without an answer.
+    let mut third = TcpStream::connect(addr).unwrap();
+    third
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
+    let _ = third.write_all(b"GET /api/state HTTP/1.1\r\nhost: x\r\n\r\n");
+    let mut buffer = Vec::new();
+    let read = third.read_to_end(&mut buffer);
+    assert!(
+        read.is_err() || buffer.is_empty(),
+        "a surplus connection got {:?}",
+        String::from_utf8_lossy(&buffer)
+    );
+    // The idle ones are closed once the header timeout passes, and serving resumes.
+    let started = Instant::now();
+    for stream in &mut idle {
+        stream
+            .set_read_timeout(Some(Duration::from_secs(5)))
+            .unwrap();
+        let mut rest = Vec::new();
+        let _ = stream.read_to_end(&mut rest);
+    }
+    assert!(started.elapsed() < Duration::from_secs(4));
+    assert_eq!(get(&server, "/api/state").status, 200);
+    server.stop();
 }

@@ -231,6 +231,9 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let daemon = Daemon::start(&config, Box::new(opener)).map_err(|e| e.to_string())?;
     if let Some(addr) = daemon.web_addr() {
         println!("web view: http://{addr}/");
+        if let Some(token) = daemon.web_token() {
+            println!("web view token (the page asks for it once): {token}");
+        }
     }
     if let Some(addr) = daemon.foxglove_addr() {
         println!("foxglove: ws://{addr}");
