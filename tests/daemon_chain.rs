@@ -247,6 +247,7 @@ fn demo_indoor_builds_an_occupancy_grid() {
             ..SlamOptions::default()
         },
         map_resolution_m: 0.05,
+        ..GridPipelineOptions::default()
     })
     .expect("valid options");
     for record in &recording.link {

@@ -1,7 +1,7 @@
 //! `hil-sim bench-slam`: method 2 over every CARMEN log of a directory, laser only, with one
 //! set of defaults, and one row of figures per log.
 //!
-//! Each `NAME.clf` runs as `replay-carmen NAME.clf --odometry none` does
+//! Each `NAME.clf` (or `NAME.clf.gz`) runs as `replay-carmen NAME.clf --odometry none` does
 //! ([`crate::slam_replay`]), with `NAME.reference.tsv` and `NAME.relations` beside it when
 //! present, its outputs in `OUT/NAME/`. The table judges a change on every building at once.
 
@@ -107,7 +107,15 @@ pub enum BenchSlamError {
     },
 }
 
-/// The `*.clf` files of `dir`, sorted by name.
+/// The log's name: its file name without `.clf` or `.clf.gz`; `None` for another file.
+fn log_name(path: &Path) -> Option<String> {
+    let file = path.file_name()?.to_str()?;
+    file.strip_suffix(".clf")
+        .or_else(|| file.strip_suffix(".clf.gz"))
+        .map(str::to_owned)
+}
+
+/// The `*.clf` and `*.clf.gz` files of `dir`, sorted by name.
 ///
 /// # Errors
 /// The directory cannot be listed, or holds no log.
@@ -118,7 +126,7 @@ pub fn logs_in(dir: &Path) -> Result<Vec<PathBuf>, BenchSlamError> {
     })?;
     let mut logs: Vec<PathBuf> = entries
         .filter_map(|entry| entry.ok().map(|e| e.path()))
-        .filter(|path| path.extension().is_some_and(|ext| ext == "clf") && path.is_file())
+        .filter(|path| log_name(path).is_some() && path.is_file())
         .collect();
     logs.sort();
     if logs.is_empty() {
@@ -138,13 +146,10 @@ pub fn bench_slam(
     let logs = logs_in(&options.dir)?;
     let mut rows = Vec::with_capacity(logs.len());
     for (index, log) in logs.iter().enumerate() {
-        let name = log
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = log_name(log).unwrap_or_default();
         progress(index, logs.len(), &name);
         let beside = |suffix: &str| {
-            let path = log.with_extension(suffix);
+            let path = log.with_file_name(format!("{name}.{suffix}"));
             path.exists().then_some(path)
         };
         let replay = SlamReplayOptions {
@@ -233,6 +238,16 @@ mod tests {
         let missing = logs_in(&dir.join("missing")).expect_err("no dir");
         assert!(matches!(missing, BenchSlamError::Dir { .. }), "{missing}");
         fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn logs_are_named_without_their_extensions() {
+        assert_eq!(log_name(Path::new("d/intel.clf")).as_deref(), Some("intel"));
+        assert_eq!(
+            log_name(Path::new("d/fr079.clf.gz")).as_deref(),
+            Some("fr079")
+        );
+        assert_eq!(log_name(Path::new("d/intel.reference.tsv")), None);
     }
 
     #[test]

@@ -203,7 +203,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         web,
         daemon_counters: outcome.state.counters,
         daemon_scans,
-        geo_referenced: outcome.ekf.as_ref().is_some_and(|e| e.is_geo_referenced()),
+        geo_referenced: outcome.state.enu_from_map.is_some(),
         landmarks: outcome
             .ekf
             .as_ref()

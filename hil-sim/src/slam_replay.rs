@@ -157,6 +157,7 @@ pub fn replay_carmen_slam(
     let mut pipeline = GridPipeline::new(GridPipelineOptions {
         slam: options.slam.clone(),
         map_resolution_m: MAP_RESOLUTION_M,
+        ..GridPipelineOptions::default()
     })?;
     for (laser, scan) in lasers.iter().zip(&scans) {
         let odometry = options.odometry.then(|| {

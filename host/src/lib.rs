@@ -1,16 +1,23 @@
-//! Host software for the robot computer: the board link and its time base.
+//! The robot computer's algorithms: the board link's sensor stream, both localisation methods,
+//! geo-referencing, recording and evaluation. No threads, HTTP or command line here: the
+//! `robot-host` daemon (`host/daemon`) and `hil-sim` read inputs, drive these types and write
+//! outputs.
 //!
-//! * [`evaluation`]: trajectory accuracy on ground-truth relations (Kümmerle et al. 2009).
-//! * [`geoimage`]: geo-referenced images (GeoTIFF, PNG/JPEG + world file) and their WGS84
-//!   corners; a GeoTIFF writer for the simulator's aerial image.
-//! * [`grid`]: occupancy-grid submaps, ray insertion, sub-cell scan refinement and map export.
-//! * [`link`]: reading the board's frames from a serial port, counting every lost frame,
-//!   and mapping board time to host time.
-//! * [`pose_graph`]: a 2D pose graph optimised by sparse Levenberg–Marquardt, with robust
-//!   kernels for loop closures.
+//! * [`geometry`]: the one pose type, [`geometry::Pose2`], and the frames' conventions.
+//! * [`link`]: the board's frames decoded into time-synced [`link::SensorEvent`]s in SI units
+//!   ([`link::LinkSession`]), every lost frame counted, board time mapped to host time.
+//! * Method 2, indoors: [`scan_match`] (raster scan matching, a reference and a fast exact
+//!   matcher), [`grid`] (occupancy grids, ray insertion, map export), [`pose_graph`] (sparse
+//!   Levenberg–Marquardt with robust kernels) and [`slam`] (the method,
+//!   [`slam::GridPipeline`]).
+//! * Method 1, outdoors: [`landmarks`] (trees and corners from raw scans) and [`ekf_slam`]
+//!   (EKF local maps, map joining, history memory, GPS; the method, [`ekf_slam::LandmarkSlam`],
+//!   and its board-link adapter [`ekf_slam::EkfPipeline`]).
+//! * [`georef`]: GPS in a local metric frame, the map aligned to it, WGS84 exports;
+//!   [`geoimage`]: geo-referenced images.
 //! * [`recording`]: every read from the board and every decoded message to MCAP, for
 //!   Foxglove and for replay.
-//! * [`scan_match`]: aligning laser scans by raster overlap, a reference and a fast exact matcher.
+//! * [`evaluation`]: accuracy on relations (Kümmerle et al. 2009), error to GPS, NEES.
 
 pub mod ekf_slam;
 pub mod evaluation;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use super::CliResult;
 
-/// Method 2 over every CARMEN log (`*.clf`) of DIR, laser only, with the defaults every log
+/// Method 2 over every CARMEN log (`*.clf`, `*.clf.gz`) of DIR, laser only, with the defaults every log
 /// shares; each with `NAME.reference.tsv` and `NAME.relations` beside it when present.
 ///
 /// Prints one row per log (scans, scans/s, seconds per 1 000 scans, the mean error between

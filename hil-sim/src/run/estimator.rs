@@ -47,8 +47,7 @@ impl Estimator {
         }
     }
 
-    /// Ends the run: the grid method's final refinement, the EKF method's last join and
-    /// smoothing pass.
+    /// Ends the run: the grid method's final refinement, the EKF method's last join.
     pub fn finish(&mut self) {
         match self {
             Estimator::Grid(pipeline) => pipeline.finish(),
@@ -74,7 +73,7 @@ impl Estimator {
     pub fn trajectory_len(&self) -> usize {
         match self {
             Estimator::Grid(pipeline) => pipeline.scans().len(),
-            Estimator::Ekf(pipeline) => pipeline.trajectory().len(),
+            Estimator::Ekf(pipeline) => pipeline.scans_placed(),
         }
     }
 

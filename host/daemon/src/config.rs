@@ -125,12 +125,14 @@ impl Default for SlamConfig {
 impl SlamConfig {
     /// The grid pipeline's options (method 2).
     pub fn grid_pipeline_options(&self) -> GridPipelineOptions {
+        let [x_m, y_m, theta_rad] = self.laser_in_robot;
         GridPipelineOptions {
             slam: SlamOptions {
                 max_range_m: self.grid_max_range_m,
                 ..SlamOptions::default()
             },
             map_resolution_m: self.grid_resolution_m,
+            laser_in_robot: Pose2::new(x_m, y_m, theta_rad),
         }
     }
 

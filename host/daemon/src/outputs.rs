@@ -82,15 +82,18 @@ pub fn write_outputs(
         written.files.push(path);
     }
 
-    if let Some(ekf) = outcome.ekf.as_ref().filter(|e| e.is_geo_referenced())
-        && let Some(frame) = ekf.frame()
-    {
-        let track: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1.x_m, r.1.y_m]).collect();
-        let landmarks: Vec<LandmarkInEnu> = ekf
-            .landmarks_in_map()
-            .into_iter()
+    let geo = geo_referencing(outcome);
+    if let Some((frame, enu_from_map, landmarks_in_map)) = &geo {
+        let to_enu = |p: [f64; 2]| enu_from_map.transform_point(p);
+        let track: Vec<[f64; 2]> = trajectory
+            .iter()
+            .map(|r| to_enu([r.1.x_m, r.1.y_m]))
+            .collect();
+        let landmarks_in_enu: Vec<[f64; 2]> = landmarks_in_map.iter().map(|&p| to_enu(p)).collect();
+        let landmarks: Vec<LandmarkInEnu> = landmarks_in_enu
+            .iter()
             .enumerate()
-            .map(|(id, p)| LandmarkInEnu {
+            .map(|(id, &p)| LandmarkInEnu {
                 id: Some(id as u64),
                 position_in_enu_m: p,
                 diameter_m: None,
@@ -108,7 +111,7 @@ pub fn write_outputs(
         written.files.push(path);
         if let Some(image) = image {
             let path = dir.join("map_over_image.png");
-            let drawing = draw_over_image(image, frame, &track, &ekf.landmarks_in_map())
+            let drawing = draw_over_image(image, frame, &track, &landmarks_in_enu)
                 .map_err(output_error(&path))?;
             drawing
                 .save_png(&path)
@@ -123,7 +126,7 @@ pub fn write_outputs(
         "counters": outcome.state.counters,
         "ekf": outcome.ekf.as_ref().map(|e| e.stats()),
         "grid": outcome.grid.as_ref().map(|g| g.stats()),
-        "geo_referenced": outcome.ekf.as_ref().is_some_and(|e| e.is_geo_referenced()),
+        "geo_referenced": geo.is_some(),
         "landmarks": outcome.ekf.as_ref().map_or(0, |e| e.landmarks_in_map().len()),
         "recording": outcome.recording,
         "final_pose": outcome.state.pose,
@@ -135,6 +138,19 @@ pub fn write_outputs(
     .map_err(|e| output_error(&path)(e.to_string()))?;
     written.files.push(path);
     Ok(written)
+}
+
+/// The map's geo-referencing, once there is one: the `enu` frame, `enu_from_map` and the
+/// landmarks in the map frame. Method 1's map is the `enu` frame itself once aligned; the grid
+/// method's is placed by its alignment to the fixes.
+fn geo_referencing(outcome: &RunOutcome) -> Option<(LocalFrame, Pose2, Vec<[f64; 2]>)> {
+    if let Some(ekf) = &outcome.ekf {
+        let frame = ekf.frame().filter(|_| ekf.is_geo_referenced())?;
+        return Some((*frame, Pose2::IDENTITY, ekf.landmarks_in_map()));
+    }
+    let georef = outcome.grid_georef.as_ref()?;
+    let alignment = georef.alignment()?;
+    Some((*georef.frame()?, alignment.enu_from_map, Vec::new()))
 }
 
 /// `(host_time_s, pose_in_map)` per scan from the pipeline that owns the pose.

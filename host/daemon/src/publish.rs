@@ -28,9 +28,15 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
         lat_deg: pose_lon_lat.map(|p| p[1]),
         lon_deg: pose_lon_lat.map(|p| p[0]),
         position_cov_m2: [covariance[(0, 0)], covariance[(0, 1)], covariance[(1, 1)]],
-        time_s: ekf.trajectory().last().map_or(0.0, |p| p.time_s),
+        time_s: ekf
+            .scans_placed()
+            .checked_sub(1)
+            .and_then(|last| ekf.stamped_pose(last))
+            .map_or(0.0, |p| p.time_s),
     };
-    let trajectory = thinned(&ekf.trajectory(), MAX_SHOWN_TRAJECTORY_POINTS);
+    let trajectory = thinned_by_index(ekf.scans_placed(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
+        ekf.stamped_pose(i)
+    });
     state.trajectory_m = trajectory
         .iter()
         .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
@@ -168,17 +174,24 @@ pub fn pixel_from_map(
 
 /// At most `max` items of `items`, evenly spaced, always with the last.
 fn thinned<T: Clone>(items: &[T], max: usize) -> Vec<T> {
-    if items.len() <= max || max < 2 {
-        return items.to_vec();
-    }
-    let step = items.len().div_ceil(max - 1);
-    let mut out: Vec<T> = items.iter().step_by(step).cloned().collect();
-    if let Some(last) = items.last()
-        && !(items.len() - 1).is_multiple_of(step)
+    thinned_by_index(items.len(), max, |i| items.get(i).cloned())
+}
+
+/// At most `max` of the `len` items that `at` gives by index, evenly spaced, always with the
+/// last; only those are looked up.
+fn thinned_by_index<T>(len: usize, max: usize, at: impl Fn(usize) -> Option<T>) -> Vec<T> {
+    let step = if len <= max || max < 2 {
+        1
+    } else {
+        len.div_ceil(max - 1)
+    };
+    let mut indices: Vec<usize> = (0..len).step_by(step).collect();
+    if let Some(last) = len.checked_sub(1)
+        && !last.is_multiple_of(step)
     {
-        out.push(last.clone());
+        indices.push(last);
     }
-    out
+    indices.into_iter().filter_map(at).collect()
 }
 
 /// The grid pipeline's global grid as the live view shows it.

@@ -163,26 +163,24 @@ impl EkfPipeline {
         }
     }
 
+    /// A fix: a position update (or a step of the alignment to GPS) when it makes a
+    /// measurement; else the filter only moves to its time, as for any event.
     fn on_fix(&mut self, board_time_s: f64, fix: &GpsFix) {
-        let Some([lat_deg, lon_deg]) = fix.lat_lon_deg else {
-            return;
-        };
-        let frame = match self.frame {
-            Some(frame) => frame,
-            None => match LocalFrame::new(lat_deg, lon_deg, 0.0) {
-                Ok(frame) => *self.frame.insert(frame),
-                Err(_) => return,
-            },
-        };
-        let Ok(measurement) = GpsMeasurement::from_fix(fix, &frame, &self.gps_options) else {
-            return;
-        };
-        self.stats.fixes += 1;
-        self.method.on_fix(
-            board_time_s,
-            measurement.position_in_enu_m,
-            &measurement.covariance_in_enu_m2,
-        );
+        match GpsMeasurement::in_frame_or_first(fix, &mut self.frame, &self.gps_options) {
+            Ok(measurement) => {
+                let used = self.method.on_fix(
+                    board_time_s,
+                    measurement.position_in_enu_m,
+                    &measurement.covariance_in_enu_m2,
+                );
+                if used.is_some() {
+                    self.stats.fixes += 1;
+                }
+            }
+            Err(_) => {
+                self.method.advance_to(board_time_s);
+            }
+        }
     }
 
     /// Ends the run: the last local map is joined into the global map
@@ -205,6 +203,19 @@ impl EkfPipeline {
     /// GPS): only then do map positions have a latitude and longitude.
     pub fn is_geo_referenced(&self) -> bool {
         self.method.is_aligned() && self.frame.is_some()
+    }
+
+    /// The pose of the `index`-th scan placed, as [`EkfPipeline::trajectory`] holds it.
+    pub fn stamped_pose(&self, index: usize) -> Option<StampedPose> {
+        Some(StampedPose {
+            time_s: *self.host_times_s.get(index)?,
+            pose_in_map: self.method.trajectory().get(index)?.pose_in_map,
+        })
+    }
+
+    /// Scans the pipeline has placed (one trajectory pose each).
+    pub fn scans_placed(&self) -> usize {
+        self.host_times_s.len()
     }
 
     /// Every pose so far, one per scan used, at the scan's host time, as estimated at the

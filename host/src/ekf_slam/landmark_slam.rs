@@ -236,6 +236,12 @@ where
         &self.anchor
     }
 
+    /// Moves the filter to `t_s` with the held input, for an event that brings nothing else
+    /// (a fix without a usable position); false if `t_s` is older than the last event.
+    pub fn advance_to(&mut self, t_s: f64) -> bool {
+        self.advance(t_s)
+    }
+
     /// Predicts to `t_s` with the held input; false if `t_s` is older than the last event.
     fn advance(&mut self, t_s: f64) -> bool {
         if let Some(last) = self.last_t_s {

@@ -1,5 +1,6 @@
-//! Geo-referencing downstream of either SLAM method: the robot's trajectory in the `map` frame
-//! and the GPS fixes give `enu_from_map` with its covariance.
+//! Geo-referencing downstream of a SLAM method: the robot's trajectory in the `map` frame and
+//! the GPS fixes give `enu_from_map` with its covariance. The grid method (method 2) is
+//! geo-referenced this way; method 1 fuses the fixes into its filter instead.
 //!
 //! Fixes are kept as `enu` measurements with their time. Each [`GeoReferencer::align`] pairs
 //! every fix with the antenna's position on the trajectory *as the SLAM holds it now*
@@ -10,8 +11,8 @@
 //! until no pair changes side. The map counts as geo-referenced once the alignment's heading
 //! is known to the given standard deviation: its covariance, not a driven distance, decides.
 //!
-//! The EKF method fuses the fixes into its filter besides ([`crate::ekf_slam::GpsAnchor`]);
-//! the grid method uses this alignment only.
+//! Method 1 aligns its map with the same rigid fit and then fuses the fixes as updates
+//! ([`crate::ekf_slam::GpsAnchor`]), so its map frame becomes the `enu` frame itself.
 
 use nalgebra::Matrix3;
 
@@ -37,8 +38,9 @@ pub struct GeoReferencerOptions {
     /// The map is geo-referenced once the heading of `enu_from_map` has at most this standard
     /// deviation, radians. Default 2°.
     pub max_heading_sigma_rad: f64,
-    /// A fix further than this in time from the nearest pose is not paired, seconds (a gap
-    /// in the scans). Default 1 s.
+    /// A fix is paired only with poses at most this far apart around it (or this far from the
+    /// trajectory's first or last pose), seconds: across a gap in the scans it is left out.
+    /// Default 1 s.
     pub max_pose_gap_s: f64,
 }
 
@@ -103,14 +105,11 @@ impl GeoReferencer {
     /// # Errors
     /// The fix's position or covariance cannot be expressed in the `enu` frame.
     pub fn add_fix(&mut self, time_s: f64, fix: &GpsFix) -> Result<bool, GeoRefError> {
-        let Some([lat_deg, lon_deg]) = fix.lat_lon_deg else {
+        if !fix.has_position() {
             return Ok(false);
-        };
-        let frame = match self.frame {
-            Some(frame) => frame,
-            None => *self.frame.insert(LocalFrame::new(lat_deg, lon_deg, 0.0)?),
-        };
-        let measurement = GpsMeasurement::from_fix(fix, &frame, &self.options.gps)?;
+        }
+        let measurement =
+            GpsMeasurement::in_frame_or_first(fix, &mut self.frame, &self.options.gps)?;
         self.fixes.push(TimedFix {
             time_s,
             measurement,
@@ -119,7 +118,8 @@ impl GeoReferencer {
     }
 
     /// Fits `enu_from_map` to the fixes against `trajectory` (host time and pose in the map,
-    /// in time order) as it stands now; the alignment once the heading is determined.
+    /// in time order) as it stands now; the alignment once the heading is determined (the last
+    /// one found while a new fit is not).
     pub fn align(&mut self, trajectory: &[(f64, Pose2)]) -> Option<MapAlignment> {
         let pairs: Vec<AlignmentPair> = self
             .fixes
@@ -130,7 +130,11 @@ impl GeoReferencer {
                 Some(AlignmentPair::new(antenna_in_map, &fix.measurement))
             })
             .collect();
-        self.alignment = fit_without_jumps(&pairs, &self.options);
+        // A fit that does not settle, or whose heading is not determined for now, leaves the
+        // last alignment in place: the map does not lose its place on the image.
+        if let Some(alignment) = fit_without_jumps(&pairs, &self.options) {
+            self.alignment = Some(alignment);
+        }
         self.alignment
     }
 
@@ -203,7 +207,10 @@ fn squared_mahalanobis(fit: &RigidAlignment2d, pair: &AlignmentPair) -> f64 {
 /// outside the trajectory or across a gap longer than `max_gap_s`.
 fn pose_at(trajectory: &[(f64, Pose2)], time_s: f64, max_gap_s: f64) -> Option<Pose2> {
     let after = trajectory.partition_point(|(t, _)| *t < time_s);
-    let (t1, p1) = *trajectory.get(after)?;
+    let Some(&(t1, p1)) = trajectory.get(after) else {
+        let &(t0, p0) = trajectory.last()?;
+        return (time_s - t0 <= max_gap_s).then_some(p0);
+    };
     if after == 0 {
         return (t1 - time_s <= max_gap_s).then_some(p1);
     }
@@ -333,6 +340,7 @@ mod tests {
         let pose = pose_at(&trajectory, 0.5, 1.0).expect("inside");
         assert!((pose.theta_rad.abs() - std::f64::consts::PI).abs() < 0.3);
         assert!(pose_at(&trajectory, 3.0, 1.0).is_none());
+        assert_eq!(pose_at(&trajectory, 1.5, 1.0), Some(trajectory[1].1));
         assert!(pose_at(&[(0.0, Pose2::IDENTITY), (5.0, Pose2::IDENTITY)], 2.0, 1.0).is_none());
     }
 }

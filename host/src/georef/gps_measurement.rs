@@ -2,9 +2,8 @@
 //!
 //! The position is the fix's latitude and longitude converted by a [`LocalFrame`]; the height
 //! used for the conversion is the ellipsoidal one ([`GpsFix::height_m`], the datum height when
-//! the altitude is missing). The
-//! height barely matters for the horizontal result: an error of `h` metres shifts a fix `d`
-//! metres from the datum by about `h · d / 6.4e6` metres.
+//! the altitude is missing). The height barely matters for the horizontal result: an error of
+//! `h` metres shifts a fix `d` metres from the datum by about `h · d / 6.4e6` metres.
 //!
 //! The covariance comes from the best source the report carries, in this order:
 //!
@@ -17,9 +16,9 @@
 //!    `σ_e² = σ_n² = (HDOP · UERE)² / 2`.
 //!
 //! A GST field of 0 mm, or an HDOP of 0, is read as "not reported" (receivers fill empty fields
-//! with zeros; [`GpsFix`] drops them), and the next source is used. The GST sigmas are given in the local frame at the
-//! fix; the meridian convergence between it and the datum's frame (under 0.1° within 10 km) is
-//! neglected.
+//! with zeros; [`GpsFix`] drops them), and the next source is used. The GST sigmas are given in
+//! the local frame at the fix; the meridian convergence between it and the datum's frame (under
+//! 0.1° within 10 km) is neglected.
 
 use nalgebra::Matrix2;
 use protocol::FixQuality;
@@ -107,6 +106,27 @@ impl GpsMeasurement {
             covariance_in_enu_m2,
             covariance_source,
         })
+    }
+
+    /// As [`GpsMeasurement::from_fix`] in `*frame`; while there is no frame yet, in a new one
+    /// at the fix, which is kept only if the fix makes a measurement (a report the measurement
+    /// refuses never sets the datum).
+    ///
+    /// # Errors
+    /// As [`GpsMeasurement::from_fix`], and those of [`LocalFrame::new`] for a first fix.
+    pub fn in_frame_or_first(
+        fix: &GpsFix,
+        frame: &mut Option<LocalFrame>,
+        options: &GpsMeasurementOptions,
+    ) -> Result<Self, GeoRefError> {
+        if let Some(frame) = frame {
+            return GpsMeasurement::from_fix(fix, frame, options);
+        }
+        let [lat_deg, lon_deg] = fix.lat_lon_deg.ok_or(GeoRefError::NoFix)?;
+        let first = LocalFrame::new(lat_deg, lon_deg, 0.0)?;
+        let measurement = GpsMeasurement::from_fix(fix, &first, options)?;
+        *frame = Some(first);
+        Ok(measurement)
     }
 
     /// Builds a measurement from a plain position, for logs that carry no NMEA: (`lat_deg`,

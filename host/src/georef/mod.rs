@@ -14,7 +14,7 @@
 //!   its 3×3 covariance and residual.
 //! * [`write_geojson`] / [`feature_collection`] and [`write_kml`] / [`kml_document`]: a
 //!   trajectory and [`LandmarkInEnu`]s as GeoJSON (RFC 7946) and KML 2.2 in WGS84.
-//! * [`GeoReferencer`]: downstream of either SLAM method, a trajectory and the fixes give
+//! * [`GeoReferencer`]: downstream of a SLAM method (the grid method's), a trajectory and the fixes give
 //!   `enu_from_map` ([`MapAlignment`]) with its covariance, receiver jumps set aside.
 //! * [`GeoRefError`]: every failure of the module, one enum.
 

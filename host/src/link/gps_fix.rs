@@ -25,7 +25,8 @@ pub struct GpsFix {
     pub source: FixSource,
     /// Fix quality.
     pub quality: FixQuality,
-    /// `[lat_deg, lon_deg]` on WGS84, present only with a valid fix.
+    /// `[lat_deg, lon_deg]` on WGS84, as the report gives it (the board sends one only with a
+    /// valid fix; [`GpsFix::has_position`] checks the quality too).
     pub lat_lon_deg: Option<[f64; 2]>,
     /// Height above the WGS84 ellipsoid (altitude above mean sea level plus the geoid
     /// separation, taken as zero when missing), metres; `None` without an altitude.

@@ -108,8 +108,9 @@ impl ChainCloser {
     }
 
     /// Searches the scan of `node`, believed at `pose_in_map`, in the chain of earlier scans
-    /// around the one nearest to it ([`ChainClosureOptions`](super::ChainClosureOptions)), drawn at the poses the
-    /// graph holds now. The closure is in the frame of that nearest scan.
+    /// around the one nearest to it ([`ChainClosureOptions`](super::ChainClosureOptions)),
+    /// drawn at the poses the graph holds now. The closure is in the frame of that nearest
+    /// scan.
     pub(super) fn search(
         &mut self,
         node: usize,

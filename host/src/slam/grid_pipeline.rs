@@ -18,6 +18,9 @@ pub struct GridPipelineOptions {
     pub slam: SlamOptions,
     /// Cell size of the global occupancy grid, metres.
     pub map_resolution_m: f64,
+    /// The laser's pose on the robot: the link's scans (in the sensor frame) are moved into the
+    /// robot frame with it, so the poses are the robot's.
+    pub laser_in_robot: Pose2,
 }
 
 impl Default for GridPipelineOptions {
@@ -25,6 +28,7 @@ impl Default for GridPipelineOptions {
         GridPipelineOptions {
             slam: SlamOptions::default(),
             map_resolution_m: 0.05,
+            laser_in_robot: Pose2::IDENTITY,
         }
     }
 }
@@ -71,8 +75,20 @@ impl GridPipeline {
             host_time_s, scan, ..
         } = event
         {
-            let scan = scan.to_scan(self.options.slam.max_range_m);
-            self.add_scan(*host_time_s, &scan, None);
+            let in_sensor = scan.to_scan(self.options.slam.max_range_m);
+            let robot_from_sensor = self.options.laser_in_robot;
+            let in_robot = if robot_from_sensor == Pose2::IDENTITY {
+                in_sensor
+            } else {
+                Scan::from_points_in_robot(
+                    in_sensor
+                        .points_in_robot()
+                        .iter()
+                        .map(|p| p.map(|p| robot_from_sensor.transform_point(p)))
+                        .collect(),
+                )
+            };
+            self.add_scan(*host_time_s, &in_robot, None);
         }
     }
 

@@ -1,6 +1,6 @@
 //! The page's files, compiled into the binary so that the view works with no network.
 //!
-//! The sources are in `host/assets/web/`: plain HTML, CSS and JavaScript with no build step.
+//! The sources are in `host/daemon/assets/web/`: plain HTML, CSS and JavaScript with no build step.
 
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
