@@ -18,34 +18,29 @@ const PIXEL_FIT_HALF_SIDE_M: f64 = 200.0;
 /// Writes the EKF pipeline's estimate into `state`.
 pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoImage>) {
     let (pose, covariance) = ekf.pose();
-    let frame = ekf.frame().filter(|_| ekf.is_geo_referenced());
-    let lon_lat = |xy: [f64; 2]| frame.and_then(|f| f.to_lon_lat_deg(xy).ok());
-    let pose_lon_lat = lon_lat([pose.x_m, pose.y_m]);
-    state.pose = PoseView {
-        x_m: pose.x_m,
-        y_m: pose.y_m,
-        theta_rad: pose.theta_rad,
-        lat_deg: pose_lon_lat.map(|p| p[1]),
-        lon_deg: pose_lon_lat.map(|p| p[0]),
-        position_cov_m2: [covariance[(0, 0)], covariance[(0, 1)], covariance[(1, 1)]],
-        time_s: ekf
-            .scans_placed()
-            .checked_sub(1)
-            .and_then(|last| ekf.stamped_pose(last))
-            .map_or(0.0, |p| p.time_s),
-    };
-    let trajectory = thinned_by_index(ekf.scans_placed(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
+    let time_s = ekf
+        .scans_placed()
+        .checked_sub(1)
+        .and_then(|last| ekf.stamped_pose(last))
+        .map_or(0.0, |p| p.time_s);
+    let trajectory_m = thinned_by_index(ekf.scans_placed(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
         ekf.stamped_pose(i)
+            .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
     });
-    state.trajectory_m = trajectory
-        .iter()
-        .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
-        .collect();
-    state.trajectory_wgs84 = state
-        .trajectory_m
-        .iter()
-        .filter_map(|&xy| lon_lat(xy))
-        .collect();
+    // Once aligned, the EKF's map frame is the `enu` frame itself.
+    let placement = ekf
+        .frame()
+        .filter(|_| ekf.is_geo_referenced())
+        .map(|frame| (*frame, Pose2::IDENTITY));
+    let covariance_m2 = [covariance[(0, 0)], covariance[(0, 1)], covariance[(1, 1)]];
+    publish_pose(
+        state,
+        (pose, covariance_m2, time_s),
+        trajectory_m,
+        placement,
+        image,
+    );
+    let lon_lat = |xy: [f64; 2]| lon_lat_of(placement, xy);
     state.landmarks = ekf
         .landmarks_in_map()
         .into_iter()
@@ -55,13 +50,6 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
             lat_lon_deg: lon_lat(xy).map(|[lon, lat]| [lat, lon]),
         })
         .collect();
-    state.datum_lat_lon_deg = frame.map(|f| [f.datum_lat_deg(), f.datum_lon_deg()]);
-    // Once aligned, the EKF's map frame is the `enu` frame itself.
-    state.enu_from_map = frame.map(|_| Pose2::IDENTITY);
-    state.pixel_from_map = match (frame, image) {
-        (Some(frame), Some(image)) => pixel_from_map(frame, image, [pose.x_m, pose.y_m]),
-        _ => None,
-    };
 }
 
 /// Writes the grid pipeline's estimate into `state`: the grid always, the pose and trajectory
@@ -87,37 +75,62 @@ pub fn publish_grid_pose(
     georef: Option<&GeoReferencer>,
     image: Option<&GeoImage>,
 ) {
-    let pose = grid.pose();
     let trajectory = grid.trajectory();
-    let aligned = georef.and_then(|g| Some((*g.frame()?, g.alignment()?.enu_from_map)));
-    let lon_lat = |xy: [f64; 2]| {
-        aligned.and_then(|(frame, enu_from_map)| {
-            frame.to_lon_lat_deg(enu_from_map.transform_point(xy)).ok()
-        })
-    };
-    let pose_lon_lat = lon_lat([pose.x_m, pose.y_m]);
+    let time_s = trajectory.last().map_or(0.0, |p| p.0);
+    let trajectory_m = thinned(&trajectory, MAX_SHOWN_TRAJECTORY_POINTS)
+        .iter()
+        .map(|(_, p)| [p.x_m, p.y_m])
+        .collect();
+    let placement = georef.and_then(|g| Some((*g.frame()?, g.alignment()?.enu_from_map)));
+    // Scan matching against the submap pins the pose to about a cell.
+    let covariance_m2 = [0.05f64.powi(2), 0.0, 0.05f64.powi(2)];
+    publish_pose(
+        state,
+        (grid.pose(), covariance_m2, time_s),
+        trajectory_m,
+        placement,
+        image,
+    );
+}
+
+/// Where a map lies on the Earth: the `enu` frame and `enu_from_map`.
+type Placement = Option<(LocalFrame, Pose2)>;
+
+/// `[lon_deg, lat_deg]` of a map point, once the map is placed.
+fn lon_lat_of(placement: Placement, xy_in_map: [f64; 2]) -> Option<[f64; 2]> {
+    let (frame, enu_from_map) = placement?;
+    frame
+        .to_lon_lat_deg(enu_from_map.transform_point(xy_in_map))
+        .ok()
+}
+
+/// Writes the pose (with its `[xx, xy, yy]` position covariance and time), the trajectory and,
+/// once the map is placed, their WGS84 positions and the map's place on the image.
+fn publish_pose(
+    state: &mut LiveState,
+    (pose, position_cov_m2, time_s): (Pose2, [f64; 3], f64),
+    trajectory_m: Vec<[f64; 2]>,
+    placement: Placement,
+    image: Option<&GeoImage>,
+) {
+    let pose_lon_lat = lon_lat_of(placement, [pose.x_m, pose.y_m]);
     state.pose = PoseView {
         x_m: pose.x_m,
         y_m: pose.y_m,
         theta_rad: pose.theta_rad,
         lat_deg: pose_lon_lat.map(|p| p[1]),
         lon_deg: pose_lon_lat.map(|p| p[0]),
-        // Scan matching against the submap pins the pose to about a cell.
-        position_cov_m2: [0.05f64.powi(2), 0.0, 0.05f64.powi(2)],
-        time_s: trajectory.last().map_or(0.0, |p| p.0),
+        position_cov_m2,
+        time_s,
     };
-    state.trajectory_m = thinned(&trajectory, MAX_SHOWN_TRAJECTORY_POINTS)
+    state.trajectory_wgs84 = trajectory_m
         .iter()
-        .map(|(_, p)| [p.x_m, p.y_m])
+        .filter_map(|&xy| lon_lat_of(placement, xy))
         .collect();
-    state.trajectory_wgs84 = state
-        .trajectory_m
-        .iter()
-        .filter_map(|&xy| lon_lat(xy))
-        .collect();
-    state.datum_lat_lon_deg = aligned.map(|(f, _)| [f.datum_lat_deg(), f.datum_lon_deg()]);
-    state.enu_from_map = aligned.map(|(_, enu_from_map)| enu_from_map);
-    state.pixel_from_map = match (aligned, image) {
+    state.trajectory_m = trajectory_m;
+    state.datum_lat_lon_deg = placement.map(|(f, _)| [f.datum_lat_deg(), f.datum_lon_deg()]);
+    state.enu_from_map = placement.map(|(_, enu_from_map)| enu_from_map);
+    state.pixel_from_map = match (placement, image) {
         (Some((frame, enu_from_map)), Some(image)) => {
             let centre_in_enu = enu_from_map.transform_point([pose.x_m, pose.y_m]);
             pixel_from_map(&frame, image, centre_in_enu)
