@@ -1,8 +1,8 @@
 //! Method 2 on real laser logs: the occupancy-grid SLAM over the Freiburg building 101 log
 //! and the start of the ACES log without odometry, scored on relations built from their
-//! reference trajectories, and the start of the Intel log on its published relations. The full
-//! table over every benchmark log is the `replay-carmen`
-//! command's (README, "Method 2").
+//! reference trajectories, the start of the Intel log on its published relations, and
+//! `bench-slam` over the start of every benchmark log. The full table over every log is the
+//! `bench-slam` command's (`docs/method2.md`).
 
 use std::path::PathBuf;
 

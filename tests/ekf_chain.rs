@@ -2,7 +2,7 @@
 //! minutes, with and without GPS) and its consistency in Monte-Carlo runs of the seeded park.
 //!
 //! The full-run figures (`cargo run --release -p hil-sim -- replay-victoria …`, `nees
-//! --runs 50`) are in the README; these are short versions that keep CI fast.
+//! --runs 50`) are in `docs/method1.md`; these are short versions that keep CI fast.
 
 use std::fs;
 
