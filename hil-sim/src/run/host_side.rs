@@ -1,14 +1,13 @@
-//! The robot computer's side of a run: reads the host link as `robot-host` does, keeps the
-//! clock in sync with pings, feeds every scan and fix to the host library's pipeline
-//! ([`Estimator`]), and tells each scan that arrives apart from the ones the sensor sent
-//! (intact, or not the same: damaged and yet accepted).
+//! The robot computer's side of a run: reads the host link through the same
+//! [`LinkSession`] as `robot-host` (decoding, counters, clock sync by pings), feeds every
+//! sensor event to the host library's pipeline ([`Estimator`]), and tells each scan that
+//! arrives apart from the ones the sensor sent (intact, or not the same: damaged and yet
+//! accepted).
 
 use std::collections::VecDeque;
 
-use std::sync::Arc;
-
-use host::link::{GpsFix, LaserScan, LinkReader, SensorEvent, TimeSync};
-use protocol::{Encoder, GpsFixMsg, MAX_WIRE_LEN, MeasuringMode, Message, ScanMsg, StatusMsg};
+use host::link::{LinkSession, SensorEvent};
+use protocol::{GpsFixMsg, MeasuringMode, Message, ScanMsg, StatusMsg};
 
 use super::estimator::Estimator;
 use crate::world::RobotState;
@@ -46,9 +45,7 @@ pub struct DecodedScan {
 
 /// What the host has seen so far.
 pub struct HostSide {
-    reader: LinkReader,
-    sync: TimeSync,
-    encoder: Encoder,
+    session: LinkSession,
     estimator: Estimator,
     /// Scans sent and not yet seen by the host, oldest first.
     sent: VecDeque<SentScan>,
@@ -78,7 +75,7 @@ pub struct HostSide {
 impl core::fmt::Debug for HostSide {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("HostSide")
-            .field("stats", &self.reader.stats())
+            .field("stats", &self.session.link_stats())
             .field("records", &self.records.len())
             .finish_non_exhaustive()
     }
@@ -88,9 +85,7 @@ impl HostSide {
     /// A host that has received nothing, estimating with `estimator`.
     pub fn new(estimator: Estimator) -> HostSide {
         HostSide {
-            reader: LinkReader::new(),
-            sync: TimeSync::new(),
-            encoder: Encoder::new(),
+            session: LinkSession::new(MeasuringMode::DEFAULT),
             estimator,
             sent: VecDeque::new(),
             records: Vec::new(),
@@ -114,21 +109,25 @@ impl HostSide {
 
     /// Bytes from the board arrived at host time `now_s`.
     pub fn feed(&mut self, bytes: &[u8], now_s: f64) {
-        for received in self.reader.feed(bytes) {
-            self.sync.observe(&received.message, now_s);
+        let decoded = self.session.feed(bytes, now_s);
+        // The session makes one event per scan and fix message, in the same order.
+        let mut events = decoded.events.into_iter();
+        for (received, _) in decoded.messages {
             match received.message {
-                Message::Scan(scan) => self.on_scan(&scan),
+                Message::Scan(scan) => {
+                    if let Some(event) = events.next() {
+                        self.on_scan(&scan, &event);
+                    }
+                }
                 Message::GpsFix(fix) => {
                     // A receiver reports one epoch in several sentences (RMC, GGA, …).
                     if fix.position.is_some() && fix.time != self.last_fix_time {
                         self.fixes_with_position += 1;
                         self.last_fix_time = fix.time;
                     }
-                    self.estimator.on_event(&SensorEvent::Fix {
-                        host_time_s: self.sync.clock().to_host_s(fix.stamp_us),
-                        board_time_s: fix.stamp_us as f64 * 1e-6,
-                        fix: GpsFix::from_msg(&fix),
-                    });
+                    if let Some(event) = events.next() {
+                        self.estimator.on_event(&event);
+                    }
                     self.fixes.push(GpsFixMsg { stamp_us: 0, ..fix });
                 }
                 Message::Status(status) => self.status = Some(status),
@@ -139,32 +138,23 @@ impl HostSide {
 
     /// The link was unplugged and plugged back in: a partial frame is forgotten.
     pub fn reconnected(&mut self) {
-        self.reader.reconnected();
+        self.session.reconnected();
     }
 
     /// A time-sync ping to send at host time `now_s`, encoded for the wire.
     pub fn ping(&mut self, now_s: f64) -> Vec<u8> {
-        let seq = self.encoder.next_seq();
-        let ping = self.sync.ping(seq, now_s);
-        self.encode(&ping)
+        self.session.ping(now_s)
     }
 
     /// A status request, encoded for the wire.
     pub fn status_request(&mut self) -> Vec<u8> {
-        self.encode(&Message::RequestStatus(protocol::RequestStatusCmd))
+        self.session
+            .encode(&Message::RequestStatus(protocol::RequestStatusCmd))
     }
 
     /// Counters of the link reader.
     pub fn link_stats(&self) -> host::link::LinkStats {
-        self.reader.stats()
-    }
-
-    fn encode(&mut self, message: &Message) -> Vec<u8> {
-        let mut out = [0u8; MAX_WIRE_LEN];
-        self.encoder
-            .encode(message, &mut out)
-            .map(<[u8]>::to_vec)
-            .unwrap_or_default()
+        self.session.link_stats()
     }
 
     /// Ends the run: the pipeline finishes, and each scan record takes its pose as the
@@ -183,15 +173,11 @@ impl HostSide {
         }
     }
 
-    fn on_scan(&mut self, scan: &ScanMsg) {
-        let t_s = self.sync.clock().to_host_s(scan.stamp_us);
+    /// A scan message and the session's event for it.
+    fn on_scan(&mut self, scan: &ScanMsg, event: &SensorEvent) {
+        let t_s = event.host_time_s();
         // Every scan the link delivers goes to the pipeline, as in the daemon.
-        self.estimator.on_event(&SensorEvent::Scan {
-            host_time_s: t_s,
-            board_time_s: scan.stamp_us as f64 * 1e-6,
-            scan_counter: scan.scan_counter,
-            scan: Arc::new(LaserScan::from_msg(scan, MeasuringMode::DEFAULT)),
-        });
+        self.estimator.on_event(event);
         self.scans.push(DecodedScan {
             scan_counter: scan.scan_counter,
             values: scan.values.to_vec(),
