@@ -75,12 +75,15 @@ pub fn publish_grid_pose(
     georef: Option<&GeoReferencer>,
     image: Option<&GeoImage>,
 ) {
-    let trajectory = grid.trajectory();
-    let time_s = trajectory.last().map_or(0.0, |p| p.0);
-    let trajectory_m = thinned(&trajectory, MAX_SHOWN_TRAJECTORY_POINTS)
-        .iter()
-        .map(|(_, p)| [p.x_m, p.y_m])
-        .collect();
+    // Called on every scan: only the poses shown are looked up.
+    let scans = grid.scans().len();
+    let time_s = scans
+        .checked_sub(1)
+        .and_then(|last| grid.stamped_pose(last))
+        .map_or(0.0, |p| p.0);
+    let trajectory_m = thinned_by_index(scans, MAX_SHOWN_TRAJECTORY_POINTS, |i| {
+        grid.stamped_pose(i).map(|(_, p)| [p.x_m, p.y_m])
+    });
     let placement = georef.and_then(|g| Some((*g.frame()?, g.alignment()?.enu_from_map)));
     // Scan matching against the submap pins the pose to about a cell.
     let covariance_m2 = [0.05f64.powi(2), 0.0, 0.05f64.powi(2)];
@@ -185,11 +188,6 @@ pub fn pixel_from_map(
         .then_some([a, b, c, d, e, f])
 }
 
-/// At most `max` items of `items`, evenly spaced, always with the last.
-fn thinned<T: Clone>(items: &[T], max: usize) -> Vec<T> {
-    thinned_by_index(items.len(), max, |i| items.get(i).cloned())
-}
-
 /// At most `max` of the `len` items that `at` gives by index, evenly spaced, always with the
 /// last; only those are looked up.
 fn thinned_by_index<T>(len: usize, max: usize, at: impl Fn(usize) -> Option<T>) -> Vec<T> {
@@ -237,6 +235,11 @@ mod tests {
         assert!((expected[0] - got[0]).abs() < 1e-12 && (expected[1] - got[1]).abs() < 1e-12);
     }
     use super::*;
+
+    /// `items` thinned as the live view thins a trajectory.
+    fn thinned(items: &[usize], max: usize) -> Vec<usize> {
+        thinned_by_index(items.len(), max, |i| items.get(i).copied())
+    }
 
     #[test]
     fn thinning_keeps_ends_and_bounds_the_count() {

@@ -186,7 +186,9 @@ impl GraphSlam {
         self.graph.nodes().iter().map(|n| n.pose_in_map).collect()
     }
 
-    fn pose_in_map(&self, node: usize) -> Option<Pose2> {
+    /// The pose in the map frame of the scan of `node` (in the order scans were added), as
+    /// the graph holds it now.
+    pub fn pose_in_map(&self, node: usize) -> Option<Pose2> {
         self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
     }
 

@@ -132,6 +132,18 @@ impl GridPipeline {
         }
     }
 
+    /// The time and pose of the `index`-th scan added, as [`GridPipeline::trajectory`] holds
+    /// it, without copying the others.
+    pub fn stamped_pose(&self, index: usize) -> Option<(f64, Pose2)> {
+        let time_s = *self.times_s.get(index)?;
+        let pose = match (&self.result, &self.slam) {
+            (Some(result), _) => result.poses_in_map.get(index).copied(),
+            (None, Some(slam)) => slam.pose_in_map(index),
+            (None, None) => None,
+        }?;
+        Some((time_s, pose))
+    }
+
     /// Every scan's time and pose as the graph holds it now.
     pub fn trajectory(&self) -> Vec<(f64, Pose2)> {
         let poses = self.poses_in_map();
