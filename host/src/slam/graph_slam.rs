@@ -24,6 +24,10 @@ pub struct SlamStats {
     pub wide_searches: usize,
     /// Scans whose wide search ran once more over every heading.
     pub every_heading_searches: usize,
+    /// Scans whose local tracking searched the far window (scans metres apart).
+    pub far_searches: usize,
+    /// Scans local tracking could not place (their pose is the prediction).
+    pub lost_scans: usize,
     /// Submaps built.
     pub submaps: usize,
     /// Scan-in-submap searches for loop closure.
@@ -47,6 +51,8 @@ pub struct SlamStats {
 pub struct SlamResult {
     /// `map_from_robot` of every scan, in the order they were added.
     pub poses_in_map: Vec<Pose2>,
+    /// For every scan, whether local tracking could not place it.
+    pub lost: Vec<bool>,
     /// What happened.
     pub stats: SlamStats,
 }
@@ -72,6 +78,8 @@ pub struct GraphSlam {
     closer: LoopCloser,
     graph: PoseGraph,
     poses_in_local: Vec<Pose2>,
+    /// For every scan, whether local tracking could not place it.
+    lost: Vec<bool>,
     /// Finished submaps with their matcher references.
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// `map_from_local` as of the last optimisation.
@@ -96,6 +104,7 @@ impl GraphSlam {
             closer: LoopCloser::new(options.loop_closure.clone())?,
             graph: PoseGraph::new(),
             poses_in_local: Vec::new(),
+            lost: Vec::new(),
             finished: Vec::new(),
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
@@ -115,6 +124,9 @@ impl GraphSlam {
         self.stats.scans += 1;
         self.stats.wide_searches += usize::from(tracked.searched);
         self.stats.every_heading_searches += usize::from(tracked.searched_every_heading);
+        self.stats.far_searches += usize::from(tracked.searched_far);
+        self.stats.lost_scans += usize::from(tracked.lost);
+        self.lost.push(tracked.lost);
         let node = tracked.node;
         let pose_in_map = self.map_from_local * tracked.pose_in_local;
         // Node numbers follow scan order, so the graph's ids equal `node`; adding can only
@@ -123,11 +135,24 @@ impl GraphSlam {
             let _ = self.graph.set_fixed(NodeId(0), true);
         }
         if let Some(&previous) = self.poses_in_local.last() {
+            // A lost scan's pose is the prediction, as uncertain as the motion prior says.
+            let information = if tracked.lost {
+                let [sigma_m, sigma_rad] = tracked.prior_sigma;
+                Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad)
+            } else {
+                let information =
+                    consecutive_information(&self.options, tracked.information_in_robot.as_ref());
+                // The candidates that came close widen the constraint to cover them.
+                information
+                    .try_inverse()
+                    .and_then(|covariance| (covariance + tracked.ambiguity_in_robot).try_inverse())
+                    .unwrap_or(information)
+            };
             let edge = Edge::new(
                 NodeId(node - 1),
                 NodeId(node),
                 previous.inverse() * tracked.pose_in_local,
-                consecutive_information(&self.options, tracked.information_in_robot.as_ref()),
+                information,
             );
             let _ = self.graph.add_edge(edge);
         }
@@ -171,6 +196,7 @@ impl GraphSlam {
         }
         SlamResult {
             poses_in_map: self.graph.nodes().iter().map(|n| n.pose_in_map).collect(),
+            lost: self.lost,
             stats: self.stats,
         }
     }
@@ -178,6 +204,16 @@ impl GraphSlam {
     /// What happened so far.
     pub fn stats(&self) -> SlamStats {
         self.stats
+    }
+
+    /// Whether local tracking could not place the last scan added.
+    pub fn is_lost(&self) -> bool {
+        self.lost.last().copied().unwrap_or(false)
+    }
+
+    /// For every scan added, whether local tracking could not place it.
+    pub fn lost(&self) -> &[bool] {
+        &self.lost
     }
 
     /// Every scan's pose in the map frame as the graph holds it now (loop closures so far

@@ -11,14 +11,23 @@
 //! If too little of the surface then lies on the submap's surfaces, the prediction was too far
 //! off for a local alignment: the exact raster matcher searches a wide window against the last
 //! scans, around the prediction and around the last pose, the alignment is run again from
-//! what it found and from the last pose, and the candidate with the highest
-//! [`SubmapFit::tracking_score`] wins (surface on the submap's surfaces, less a part of the
-//! surface on cells it has seen free). When even that leaves less than
-//! [`LocalTrackingOptions::full_turn_below_surface_fraction`](super::LocalTrackingOptions) of
-//! the surface fitting, the robot turned further than the window reaches (a turn on the spot
-//! that reverses the last one, a turn while driving a metre), and the search runs once more
-//! over every heading, around the prediction and around the last pose, against the last scans
-//! and against the whole older submap; a pose from it must bring the fit to that fraction.
+//! what it found and from the last pose, and the candidate with the highest score wins (its
+//! [`SubmapFit::tracking_score`]: surface on the submap's surfaces, less a part of the surface
+//! on cells it has seen free; less the motion prior's penalty, below). When even that leaves
+//! less than [`LocalTrackingOptions::full_turn_below_surface_fraction`](super::LocalTrackingOptions)
+//! of the surface fitting, the robot may have turned further than the window reaches (a turn
+//! on the spot that reverses the last one, a turn while driving a metre), and the search runs
+//! once more over every heading, around the prediction and around the last pose, against the
+//! last scans and against the whole older submap.
+//!
+//! Every candidate is weighed against the [`MotionPrior`]: its score is its fit less what the
+//! prior's uncertainty makes of its distance from the prediction, so a pose tens of degrees or
+//! metres from the prediction must fit far better to be taken, and a wide search whose best
+//! candidate still scores nothing is refused. When the prior has learned that motions stray
+//! beyond the wide search's window (scans metres apart), a search over
+//! [`LocalTrackingOptions::far_search_window_m`] follows. A scan no candidate placed keeps its
+//! predicted pose and is flagged lost ([`TrackedScan::lost`]); its constraint to the scan
+//! before carries the prior's uncertainty, so that a loop closure can undo it.
 //!
 //! The pose found goes into both active submaps; the older is finished when the newer has
 //! received [`SlamOptions::scans_per_submap`] scans.
@@ -26,6 +35,7 @@
 use nalgebra::Matrix3;
 
 use super::icp::align;
+use super::motion_prior::MotionPrior;
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
 use super::slam_submap::{SlamSubmap, SubmapFit};
@@ -50,6 +60,22 @@ pub struct TrackedScan {
     pub searched: bool,
     /// Whether the wide search ran once more over every heading.
     pub searched_every_heading: bool,
+    /// Whether the far search ran ([`LocalTrackingOptions::far_search_window_m`]).
+    ///
+    /// [`LocalTrackingOptions::far_search_window_m`]: super::LocalTrackingOptions::far_search_window_m
+    pub searched_far: bool,
+    /// No alignment placed the scan: its pose is the prediction.
+    pub lost: bool,
+    /// The motion prior's standard deviations at this scan: translation (m), rotation (rad).
+    pub prior_sigma: [f64; 2],
+    /// How far the other candidate poses that scored nearly as well lie from the chosen one:
+    /// their covariance about it in the robot frame, `(x_m, y_m, theta_rad)`, each weighted
+    /// by how likely its score makes it (zero when no other candidate came close). Two
+    /// headings a corridor junction cannot tell apart give the pose that much uncertainty.
+    pub ambiguity_in_robot: Matrix3<f64>,
+    /// The chosen pose's share of the likelihood of all candidates (1 when it stood alone,
+    /// 0 for a lost scan).
+    pub confidence: f64,
     /// A submap this scan finished, to keep for loop closure.
     pub finished_submap: Option<SlamSubmap>,
 }
@@ -59,6 +85,8 @@ pub struct TrackedScan {
 struct Alignment {
     pose_in_local: Pose2,
     fit: SubmapFit,
+    /// The fit's [`SubmapFit::tracking_score`] less the motion prior's penalty.
+    score: f64,
     /// See [`TrackedScan::information_in_robot`].
     information_in_robot: Matrix3<f64>,
 }
@@ -73,6 +101,9 @@ pub struct LocalTracker {
     wide_search: FastMatcher,
     /// The wide search's window over every heading.
     full_turn_search: FastMatcher,
+    /// The search for scans farther apart than the wide window reaches.
+    far_search: FastMatcher,
+    prior: MotionPrior,
     last_pose_in_local: Option<Pose2>,
     last_motion: Pose2,
     last_odometry: Option<Pose2>,
@@ -100,9 +131,18 @@ impl LocalTracker {
             local.search_rotation_step_rad,
             256,
         )?;
+        let far_search = window_matcher(
+            local.far_search_window_m,
+            local.search_window_rad,
+            local.far_search_resolution_m,
+            local.far_search_rotation_step_rad,
+            256,
+        )?;
         Ok(LocalTracker {
             wide_search,
             full_turn_search,
+            far_search,
+            prior: MotionPrior::new(local.motion_prior),
             recent: RecentScans::new(local.recent_scans),
             active: Vec::new(),
             last_pose_in_local: None,
@@ -133,15 +173,23 @@ impl LocalTracker {
                 information_in_robot: None,
                 searched: false,
                 searched_every_heading: false,
+                searched_far: false,
+                lost: false,
+                prior_sigma: self.prior.sigma(),
+                ambiguity_in_robot: Matrix3::zeros(),
+                confidence: 1.0,
                 finished_submap: None,
             };
         };
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         let motion = odometry_motion.unwrap_or(self.last_motion);
         let predicted = last_pose * motion;
-        let mut best = self.align(&points, predicted);
+        let prior_sigma = self.prior.sigma();
+        let mut best = self.align(&points, predicted, predicted);
+        let mut candidates: Vec<Alignment> = best.into_iter().collect();
         let mut searched = false;
         let mut searched_every_heading = false;
+        let mut searched_far = false;
         let local = &self.options.local;
         if best.is_none_or(|a| a.fit.surface_fraction < local.min_surface_fraction) {
             searched = true;
@@ -156,22 +204,49 @@ impl LocalTracker {
                 }
             }
             for guess in guesses {
-                self.keep_better(&mut best, &points, guess, 0.0);
+                self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
             }
             let full_turn_floor = local.full_turn_below_surface_fraction;
-            if best.is_none_or(|a| a.fit.surface_fraction < full_turn_floor) {
+            let poor = |best: &Option<Alignment>| {
+                best.is_none_or(|a| a.fit.surface_fraction < full_turn_floor)
+            };
+            // Both run on a poor fit: a far candidate that fits a little better must not keep
+            // the right one, a turn beyond the window, from being found.
+            let poor_after_wide = poor(&best);
+            // Three standard deviations of the prior reach beyond the wide window.
+            if poor_after_wide && 3.0 * prior_sigma[0] > local.search_window_m {
+                searched_far = true;
+                let prepared = self.far_search.prepare(&reference);
+                for guess in [motion, Pose2::IDENTITY] {
+                    if let Ok(found) = self.far_search.match_prepared(&prepared, scan, guess) {
+                        let guess = last_pose * found.reference_from_new;
+                        self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
+                    }
+                }
+            }
+            if poor_after_wide {
                 searched_every_heading = true;
                 for guess in self.full_turn_guesses(&reference, scan, last_pose, motion) {
-                    self.keep_better(&mut best, &points, guess, full_turn_floor);
+                    self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
                 }
             }
         }
+        // A candidate the prior makes less likely than its fit makes it right is refused.
+        let best = best.filter(|a| a.score > 0.0);
+        let lost = best.is_none();
+        let (ambiguity_in_robot, confidence) = match best {
+            Some(best) => ambiguity(&best, &candidates, local.motion_prior.fit_measurements),
+            None => (Matrix3::zeros(), 0.0),
+        };
         let (pose, fit, information_in_robot) = match best {
-            Some(aligned) => (
-                aligned.pose_in_local,
-                aligned.fit,
-                Some(aligned.information_in_robot),
-            ),
+            Some(aligned) => {
+                self.prior.learn(predicted, aligned.pose_in_local);
+                (
+                    aligned.pose_in_local,
+                    aligned.fit,
+                    Some(aligned.information_in_robot),
+                )
+            }
             None => (predicted, SubmapFit::default(), None),
         };
         let finished_submap = self.accept(node, scan, pose);
@@ -183,6 +258,11 @@ impl LocalTracker {
             information_in_robot,
             searched,
             searched_every_heading,
+            searched_far,
+            lost,
+            prior_sigma,
+            ambiguity_in_robot,
+            confidence,
             finished_submap,
         }
     }
@@ -192,38 +272,47 @@ impl LocalTracker {
         &self.active
     }
 
-    /// Aligns `points` (robot frame) on the older active submap from `guess_in_local`.
-    fn align(&self, points: &[[f64; 2]], guess_in_local: Pose2) -> Option<Alignment> {
+    /// Aligns `points` (robot frame) on the older active submap from `guess_in_local`, and
+    /// scores the result against the prior around `predicted`.
+    fn align(
+        &self,
+        points: &[[f64; 2]],
+        guess_in_local: Pose2,
+        predicted: Pose2,
+    ) -> Option<Alignment> {
         let submap = self.active.first()?;
         let submap_in_local = submap.pose_in_local();
         let guess = submap_in_local.inverse() * guess_in_local;
         let icp = &self.options.local.icp;
         let found = align(submap.points(), points, guess, icp)?;
         let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
+        let pose_in_local = submap_in_local * found.map_from_robot;
+        let score = fit.tracking_score(self.options.local.free_weight)
+            - self.prior.penalty(predicted, pose_in_local);
         Some(Alignment {
-            pose_in_local: submap_in_local * found.map_from_robot,
+            pose_in_local,
             fit,
+            score,
             information_in_robot: found.information_in_robot(),
         })
     }
 
-    /// Aligns `points` from `guess_in_local` and keeps the result in `best` when it scores
-    /// higher ([`SubmapFit::tracking_score`]) and leaves at least `min_surface_fraction` of
-    /// the scanned surface on the submap's surfaces.
+    /// Aligns `points` from `guess_in_local`, adds the result to `candidates`, and keeps it
+    /// in `best` when it scores higher (its [`SubmapFit::tracking_score`] less the prior's
+    /// penalty for its distance from `predicted`).
     fn keep_better(
         &self,
         best: &mut Option<Alignment>,
+        candidates: &mut Vec<Alignment>,
         points: &[[f64; 2]],
         guess_in_local: Pose2,
-        min_surface_fraction: f64,
+        predicted: Pose2,
     ) {
-        let free_weight = self.options.local.free_weight;
-        if let Some(candidate) = self.align(points, guess_in_local)
-            && candidate.fit.surface_fraction >= min_surface_fraction
-            && best.is_none_or(|b| {
-                candidate.fit.tracking_score(free_weight) > b.fit.tracking_score(free_weight)
-            })
-        {
+        let Some(candidate) = self.align(points, guess_in_local, predicted) else {
+            return;
+        };
+        candidates.push(candidate);
+        if best.is_none_or(|b| candidate.score > b.score) {
             *best = Some(candidate);
         }
     }
@@ -302,6 +391,47 @@ impl LocalTracker {
             submap.finish();
         }
         submaps
+    }
+}
+
+/// The covariance about `best` (in its robot frame) of the `candidates` whose score comes
+/// near its own, and `best`'s share of their likelihood.
+///
+/// A score is a log-likelihood over `fit_measurements` ([`MotionPriorOptions::fit_measurements`](
+/// super::MotionPriorOptions::fit_measurements)), so a candidate weighs
+/// `exp(fit_measurements · (score − best score))` against the best; candidates that converged
+/// to one pose count once.
+fn ambiguity(
+    best: &Alignment,
+    candidates: &[Alignment],
+    fit_measurements: f64,
+) -> (Matrix3<f64>, f64) {
+    let mut distinct: Vec<&Alignment> = Vec::new();
+    for candidate in candidates {
+        let same = distinct.iter().any(|kept| {
+            let d = kept.pose_in_local.inverse() * candidate.pose_in_local;
+            d.x_m.hypot(d.y_m) < 0.01 && d.theta_rad.abs() < 0.1f64.to_radians()
+        });
+        if !same {
+            distinct.push(candidate);
+        }
+    }
+    let (mut covariance, mut total_weight) = (Matrix3::zeros(), 0.0);
+    let mut best_weight = 0.0;
+    for candidate in distinct {
+        let weight = (fit_measurements * (candidate.score - best.score)).exp();
+        let d = best.pose_in_local.inverse() * candidate.pose_in_local;
+        let offset = nalgebra::Vector3::new(d.x_m, d.y_m, d.theta_rad);
+        covariance += weight * offset * offset.transpose();
+        total_weight += weight;
+        if d.x_m.hypot(d.y_m) < 0.01 && d.theta_rad.abs() < 0.1f64.to_radians() {
+            best_weight += weight;
+        }
+    }
+    if total_weight > 0.0 {
+        (covariance / total_weight, best_weight / total_weight)
+    } else {
+        (Matrix3::zeros(), 1.0)
     }
 }
 

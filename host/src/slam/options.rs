@@ -2,6 +2,7 @@
 
 use super::closure_confirmation::ConfirmationOptions;
 use super::icp::IcpOptions;
+use super::motion_prior::MotionPriorOptions;
 use super::point_map::PointMapOptions;
 use super::slam_submap::SubmapFit;
 use crate::grid::SubmapOptions;
@@ -105,8 +106,8 @@ pub struct LocalTrackingOptions {
     /// triggers the wide search.
     pub min_surface_fraction: f64,
     /// When the wide search still leaves a smaller share than this on the submap's surfaces,
-    /// it runs once more over every heading (a turn larger than its rotation window); a pose
-    /// it finds is only taken if it brings the share to this.
+    /// it runs once more over every heading (a turn larger than its rotation window) and over
+    /// the far window ([`Self::far_search_window_m`]); what they find competes on its score.
     pub full_turn_below_surface_fraction: f64,
     /// How much the share of the scanned surface on cells the submap has seen free counts
     /// against a candidate pose, against the share on its surfaces
@@ -122,6 +123,15 @@ pub struct LocalTrackingOptions {
     pub search_rotation_step_rad: f64,
     /// Scans drawn as the wide search's reference.
     pub recent_scans: usize,
+    /// What tracking expects of the motion between scans, and how sure it is of it.
+    pub motion_prior: MotionPriorOptions,
+    /// Half width of the far search's translation window, metres: the reach, when the prior
+    /// has learned that scans lie farther apart than the wide search reaches.
+    pub far_search_window_m: f64,
+    /// Pixel size of the far search's raster, metres.
+    pub far_search_resolution_m: f64,
+    /// Rotation step of the far search, radians.
+    pub far_search_rotation_step_rad: f64,
 }
 
 impl Default for LocalTrackingOptions {
@@ -136,6 +146,10 @@ impl Default for LocalTrackingOptions {
             search_resolution_m: 0.1,
             search_rotation_step_rad: 1f64.to_radians(),
             recent_scans: 5,
+            motion_prior: MotionPriorOptions::default(),
+            far_search_window_m: 4.0,
+            far_search_resolution_m: 0.2,
+            far_search_rotation_step_rad: 2f64.to_radians(),
         }
     }
 }
