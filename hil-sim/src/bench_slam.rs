@@ -72,6 +72,10 @@ pub struct BenchSlamRow {
     pub loop_closure_searches: usize,
     /// Loop-closure constraints that entered the pose graph.
     pub loop_closures: usize,
+    /// Loop closures found but rejected: no second match agreed with them.
+    pub rejected_closures: usize,
+    /// Scans local tracking could not place (flagged lost).
+    pub lost_scans: usize,
     /// Constraints of the final refinement.
     pub refinement_constraints: usize,
 }
@@ -178,6 +182,8 @@ pub fn bench_slam(
             relations: MeanError::of(summary.relations.as_ref()),
             loop_closure_searches: stats.loop_closure_searches + stats.chain_closure_searches,
             loop_closures: stats.loop_closures,
+            rejected_closures: stats.rejected_closures,
+            lost_scans: stats.lost_scans,
             refinement_constraints: stats.refinement_constraints,
         });
     }
@@ -194,7 +200,7 @@ impl BenchSlamReport {
             )
         };
         let mut text = format!(
-            "{:<18} {:>6} {:>8} {:>8} {:>17} {:>17} {:>17} {:>9} {:>8}\n",
+            "{:<18} {:>6} {:>8} {:>8} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
             "log",
             "scans",
             "scans/s",
@@ -203,11 +209,13 @@ impl BenchSlamReport {
             "revisits",
             "relations",
             "searches",
-            "closures"
+            "closures",
+            "rejected",
+            "lost"
         );
         for row in &self.logs {
             text.push_str(&format!(
-                "{:<18} {:>6} {:>8.0} {:>8.2} {:>17} {:>17} {:>17} {:>9} {:>8}\n",
+                "{:<18} {:>6} {:>8.0} {:>8.2} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
                 row.log,
                 row.scans,
                 row.scans_per_second,
@@ -217,6 +225,8 @@ impl BenchSlamReport {
                 error(row.relations),
                 row.loop_closure_searches,
                 row.loop_closures,
+                row.rejected_closures,
+                row.lost_scans,
             ));
         }
         text
@@ -268,6 +278,8 @@ mod tests {
                 relations: None,
                 loop_closure_searches: 3,
                 loop_closures: 1,
+                rejected_closures: 2,
+                lost_scans: 4,
                 refinement_constraints: 0,
             }],
         };

@@ -4,7 +4,8 @@
 //! Outputs in the output directory:
 //!
 //! * `trajectory.tsv`: one line per scan, the log's timestamp exactly as printed, then
-//!   `x_m y_m theta_rad` of the optimised pose (map frame: the first scan's pose);
+//!   `x_m y_m theta_rad` of the optimised pose (map frame: the first scan's pose) and `lost`
+//!   (1 when local tracking could not place the scan, [`GridPipeline::lost`]);
 //! * `map.pgm`, `map.yaml` (the ROS `map_server` format) and `map.png`: the global occupancy
 //!   grid, every scan inserted at its optimised pose;
 //! * `summary.json`: `scans`, `wall_s` (the SLAM's own time: tracking, loop closure, pose
@@ -71,6 +72,9 @@ pub struct SlamReplaySummary {
     pub odometry: bool,
     /// What the pipeline did.
     pub slam: SlamStats,
+    /// Cell size the map was drawn at, metres: the finest at which it fits whole
+    /// ([`GridPipeline::global_grid_resolution_m`]).
+    pub map_resolution_m: f64,
     /// Error on the given relations, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relations: Option<RelationEvaluation>,
@@ -176,7 +180,7 @@ pub fn replay_carmen_slam(
     };
     fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
     let trajectory_path = options.out.join("trajectory.tsv");
-    write_trajectory(&trajectory_path, &lasers, &poses_in_map)
+    write_trajectory(&trajectory_path, &lasers, &poses_in_map, pipeline.lost())
         .map_err(write_error(&trajectory_path))?;
     // The map holds the beams the SLAM trusted.
     let export = MapExport::from_grid(&pipeline.global_grid(), &MapExportOptions::default());
@@ -243,6 +247,7 @@ pub fn replay_carmen_slam(
         log: options.log.display().to_string(),
         odometry: options.odometry,
         slam: pipeline.stats(),
+        map_resolution_m: pipeline.global_grid_resolution_m(),
         relations,
         relations_agreement,
         reference_consecutive,
@@ -255,17 +260,28 @@ pub fn replay_carmen_slam(
     Ok(summary)
 }
 
-fn write_trajectory(path: &Path, lasers: &[&LaserRecord], poses: &[Pose2]) -> io::Result<()> {
+fn write_trajectory(
+    path: &Path,
+    lasers: &[&LaserRecord],
+    poses: &[Pose2],
+    lost: &[bool],
+) -> io::Result<()> {
     let mut out = BufWriter::new(fs::File::create(path)?);
     writeln!(
         out,
-        "# timestamp x_m y_m theta_rad (map frame: the first scan's pose)"
+        "# timestamp x_m y_m theta_rad lost (map frame: the first scan's pose; lost = 1 where \
+         tracking could not place the scan)"
     )?;
-    for (laser, pose) in lasers.iter().zip(poses) {
+    for (index, (laser, pose)) in lasers.iter().zip(poses).enumerate() {
+        let lost = lost.get(index).copied().unwrap_or(false);
         writeln!(
             out,
-            "{} {:.6} {:.6} {:.6}",
-            laser.timestamp_text, pose.x_m, pose.y_m, pose.theta_rad
+            "{} {:.6} {:.6} {:.6} {}",
+            laser.timestamp_text,
+            pose.x_m,
+            pose.y_m,
+            pose.theta_rad,
+            u8::from(lost)
         )?;
     }
     out.flush()

@@ -20,5 +20,5 @@ pub mod web;
 pub use foxglove_live::{LiveServer, LiveServerError, start_live_server};
 pub use state::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, GridView, ImageView, LandmarkView,
-    LinkCounters, LiveState, PoseView, SharedState,
+    LinkCounters, LiveState, PoseView, SharedState, TrackingView,
 };

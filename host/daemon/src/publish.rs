@@ -1,7 +1,7 @@
 //! Turning the pipelines' estimates into the live state: the map-frame pose, trajectory and
 //! landmarks, and, once the map is geo-referenced, their latitude, longitude and image pixels.
 
-use crate::state::{GridView, LandmarkView, LiveState, PoseView};
+use crate::state::{GridView, LandmarkView, LiveState, PoseView, TrackingView};
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
 use host::geometry::Pose2;
@@ -85,6 +85,10 @@ pub fn publish_grid_pose(
         grid.stamped_pose(i).map(|(_, p)| [p.x_m, p.y_m])
     });
     let placement = georef.and_then(|g| Some((*g.frame()?, g.alignment()?.enu_from_map)));
+    state.tracking = Some(TrackingView {
+        lost: grid.is_lost(),
+        lost_scans: grid.stats().lost_scans,
+    });
     // Scan matching against the submap pins the pose to about a cell.
     let covariance_m2 = [0.05f64.powi(2), 0.0, 0.05f64.powi(2)];
     publish_pose(

@@ -35,6 +35,16 @@ pub struct GridView {
     pub size_cells: [u32; 2],
 }
 
+/// Whether the grid method knows where the robot is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct TrackingView {
+    /// Local tracking could not place the last scan: the pose shown is a prediction until a
+    /// scan fits again.
+    pub lost: bool,
+    /// Scans it could not place so far.
+    pub lost_scans: usize,
+}
+
 /// Everything the daemon shows.
 #[derive(Debug, Clone, Default)]
 pub struct LiveState {
@@ -48,6 +58,8 @@ pub struct LiveState {
     pub landmarks: Vec<LandmarkView>,
     /// The occupancy grid (indoor method), when one is built.
     pub grid: Option<GridView>,
+    /// Whether the grid method knows where the robot is (indoor method).
+    pub tracking: Option<TrackingView>,
     /// Link and sensor counters.
     pub counters: LinkCounters,
     /// The goal last set, in the map frame.

@@ -81,6 +81,11 @@ impl ChainCloser {
         })
     }
 
+    /// Chain closures rejected: no second one agreed with them (those still waiting counted).
+    pub(super) fn rejected(&self) -> usize {
+        self.confirmation.rejected_at_end()
+    }
+
     /// Whether a chain closure found before `node` still waits for its confirmation.
     pub(super) fn awaits_confirmation(&self, node: usize) -> bool {
         node <= self.pending_until

@@ -59,6 +59,8 @@ pub struct ClosureConfirmation {
     options: ConfirmationOptions,
     /// Recent closures, and whether each is in the graph already.
     recent: Vec<(FoundClosure, bool)>,
+    /// Closures that left the window without a second one agreeing.
+    rejected: usize,
 }
 
 impl ClosureConfirmation {
@@ -67,7 +69,20 @@ impl ClosureConfirmation {
         ClosureConfirmation {
             options,
             recent: Vec::new(),
+            rejected: 0,
         }
+    }
+
+    /// Closures rejected so far: offered, and out of the window without a second one that
+    /// agreed with them. Those still waiting are counted by [`Self::rejected_at_end`].
+    pub fn rejected(&self) -> usize {
+        self.rejected
+    }
+
+    /// [`Self::rejected`], with the closures still waiting counted as rejected (at the end of
+    /// a run nothing can confirm them any more).
+    pub fn rejected_at_end(&self) -> usize {
+        self.rejected + self.recent.iter().filter(|(_, added)| !added).count()
     }
 
     /// Offers `found`; `poses_in_local` are local tracking's poses of every node so far.
@@ -75,8 +90,13 @@ impl ClosureConfirmation {
     /// earlier closures it agrees with that are not in the graph yet, and `found` itself.
     pub fn offer(&mut self, found: FoundClosure, poses_in_local: &[Pose2]) -> Vec<FoundClosure> {
         let window = self.options.window_scans;
+        let before = self.recent.len();
+        let pending_before = self.recent.iter().filter(|(_, added)| !added).count();
         self.recent
             .retain(|(c, _)| c.node + window >= found.node && c.node <= found.node);
+        let pending_after = self.recent.iter().filter(|(_, added)| !added).count();
+        debug_assert!(self.recent.len() <= before);
+        self.rejected += pending_before - pending_after;
         let mut confirmed = Vec::new();
         let mut agrees = false;
         for (earlier, added) in &mut self.recent {

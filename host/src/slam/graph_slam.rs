@@ -34,6 +34,9 @@ pub struct SlamStats {
     pub loop_closure_searches: usize,
     /// Loop-closure constraints added (chain closures included).
     pub loop_closures: usize,
+    /// Loop closures found and rejected: no second one agreed with them on the motion local
+    /// tracking measured between them (chain closures included; those still waiting count).
+    pub rejected_closures: usize,
     /// Scan-in-chain searches, for scans no submap took.
     pub chain_closure_searches: usize,
     /// Of the loop-closure constraints, those found in a chain of earlier scans.
@@ -196,14 +199,17 @@ impl GraphSlam {
         }
         SlamResult {
             poses_in_map: self.graph.nodes().iter().map(|n| n.pose_in_map).collect(),
+            stats: self.stats(),
             lost: self.lost,
-            stats: self.stats,
         }
     }
 
     /// What happened so far.
     pub fn stats(&self) -> SlamStats {
-        self.stats
+        SlamStats {
+            rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
+            ..self.stats
+        }
     }
 
     /// Whether local tracking could not place the last scan added.

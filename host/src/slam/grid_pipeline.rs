@@ -16,7 +16,10 @@ use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats};
 pub struct GridPipelineOptions {
     /// The SLAM; its `max_range_m` is also the range up to which the link's scans are used.
     pub slam: SlamOptions,
-    /// Cell size of the global occupancy grid, metres.
+    /// Cell size of the global occupancy grid, metres: the finest it is drawn at. A map wider
+    /// than [`MAX_SIDE_CELLS`](crate::grid::MAX_SIDE_CELLS) of these (with room to grow) is
+    /// drawn at twice the cell size, or four times, and so on, so that it is never cut
+    /// ([`GridPipeline::global_grid_resolution_m`]).
     pub map_resolution_m: f64,
     /// The laser's pose on the robot: the link's scans (in the sensor frame) are moved into the
     /// robot frame with it, so the poses are the robot's.
@@ -155,6 +158,21 @@ impl GridPipeline {
         &self.scans
     }
 
+    /// Whether local tracking could not place the last scan: the robot is lost until a scan
+    /// fits again (and loop closure puts it back on its map).
+    pub fn is_lost(&self) -> bool {
+        self.lost().last().copied().unwrap_or(false)
+    }
+
+    /// For every scan added, whether local tracking could not place it.
+    pub fn lost(&self) -> &[bool] {
+        match (&self.result, &self.slam) {
+            (Some(result), _) => &result.lost,
+            (None, Some(slam)) => slam.lost(),
+            (None, None) => &[],
+        }
+    }
+
     /// Totals so far.
     pub fn stats(&self) -> SlamStats {
         match (&self.result, &self.slam) {
@@ -165,14 +183,58 @@ impl GridPipeline {
     }
 
     /// The global occupancy grid from every scan at its current pose.
+    ///
+    /// Drawn at [`GridPipeline::global_grid_resolution_m`], so that every scan fits whole.
     pub fn global_grid(&self) -> ProbabilityGrid {
-        ProbabilityGrid::from_scans(
-            self.poses_in_map().into_iter().zip(self.scans.iter()),
+        let poses = self.poses_in_map();
+        let resolution_m = global_grid_resolution_m(
+            poses.iter().copied().zip(self.scans.iter()),
             self.options.map_resolution_m,
+        );
+        ProbabilityGrid::from_scans(
+            poses.into_iter().zip(self.scans.iter()),
+            resolution_m,
             Default::default(),
             RangeInserterOptions::default(),
         )
     }
+
+    /// The cell size [`GridPipeline::global_grid`] draws at: the options' `map_resolution_m`,
+    /// doubled as often as needed for the map to fit whole.
+    pub fn global_grid_resolution_m(&self) -> f64 {
+        global_grid_resolution_m(
+            self.poses_in_map().into_iter().zip(self.scans.iter()),
+            self.options.map_resolution_m,
+        )
+    }
+}
+
+/// The finest cell size, `finest_m` doubled zero or more times, at which a grid holds every
+/// end point of `scans_in_map` within [`MAX_SIDE_CELLS`](crate::grid::MAX_SIDE_CELLS) a side,
+/// with room for its growth margins.
+fn global_grid_resolution_m<'a>(
+    scans_in_map: impl IntoIterator<Item = (Pose2, &'a Scan)>,
+    finest_m: f64,
+) -> f64 {
+    let (mut low, mut high) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for (pose, scan) in scans_in_map {
+        let origin = [pose.x_m, pose.y_m];
+        let ends = scan.points_in_robot().iter().flatten();
+        for point in std::iter::once(origin).chain(ends.map(|&p| pose.transform_point(p))) {
+            for axis in 0..2 {
+                low[axis] = low[axis].min(point[axis]);
+                high[axis] = high[axis].max(point[axis]);
+            }
+        }
+    }
+    let extent_m = (high[0] - low[0]).max(high[1] - low[1]);
+    // The grid grows by up to a few hundred cells beyond what it needs on each side.
+    let usable_cells = (crate::grid::MAX_SIDE_CELLS - 640) as f64;
+    let mut resolution_m = finest_m;
+    while extent_m.is_finite() && extent_m / resolution_m > usable_cells {
+        resolution_m *= 2.0;
+    }
+    resolution_m
 }
 
 #[cfg(test)]

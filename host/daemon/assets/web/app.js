@@ -450,6 +450,13 @@ function updatePanels(state) {
   const axes = ellipseAxes(pose.position_cov_m2);
   setText('pose-ellipse', axes ? `${axes.major_m.toFixed(2)} × ${axes.minor_m.toFixed(2)}` : '–');
 
+  const tracking = state.tracking;
+  const trackingElement = document.getElementById('tracking');
+  trackingElement.textContent = !tracking ? '–'
+    : tracking.lost ? `tracking lost (${tracking.lost_scans} scans so far)`
+      : `on the map (${tracking.lost_scans} scans lost so far)`;
+  trackingElement.classList.toggle('lost', Boolean(tracking && tracking.lost));
+
   const counters = state.counters;
   setText('telegrams', String(counters.telegrams));
   setText('telegram-crc-errors', String(counters.telegram_crc_errors));

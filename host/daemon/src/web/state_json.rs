@@ -7,7 +7,7 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 
 use serde::Serialize;
 
-use crate::state::{GridView, ImageView, LandmarkView};
+use crate::state::{GridView, ImageView, LandmarkView, TrackingView};
 use crate::{GoalInMap, LinkCounters, LiveState, PoseView};
 
 /// A view of [`LiveState`] borrowed for serialisation.
@@ -25,6 +25,8 @@ pub(crate) struct StateJson<'a> {
     landmarks: &'a [LandmarkView],
     /// The occupancy grid's placement, when there is one.
     grid: Option<GridJson>,
+    /// Whether the grid method knows where the robot is ("tracking lost" when not).
+    tracking: Option<TrackingView>,
     /// The goal last set.
     goal: Option<&'a GoalInMap>,
     /// The geo-referenced image, when there is one.
@@ -55,6 +57,7 @@ impl<'a> From<&'a LiveState> for StateJson<'a> {
             trajectory_wgs84: &state.trajectory_wgs84,
             landmarks: &state.landmarks,
             grid: state.grid.as_ref().map(GridJson::from),
+            tracking: state.tracking,
             goal: state.goal.as_ref(),
             image: state.image.as_ref(),
             pixel_from_map: state.pixel_from_map,

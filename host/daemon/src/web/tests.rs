@@ -6,7 +6,7 @@ use std::sync::{Arc, PoisonError};
 use serde_json::{Value, json};
 
 use super::{AccessPolicy, WebContext, WebError, WebLimits, WebServer};
-use crate::state::{GridView, ImageView, LandmarkView};
+use crate::state::{GridView, ImageView, LandmarkView, TrackingView};
 use crate::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };
@@ -360,6 +360,16 @@ fn test_map_is_the_grid_else_the_landmarks_drawn() {
     let placement = &get(&server, "/api/state").json()["grid"];
     assert_eq!(placement["origin_m"], json!([-2.0, -3.0]));
     assert_eq!(placement["size_cells"], json!([50, 40]));
+
+    // The page says "tracking lost" from this.
+    assert_eq!(get(&server, "/api/state").json()["tracking"], json!(null));
+    state.write().unwrap().tracking = Some(TrackingView {
+        lost: true,
+        lost_scans: 3,
+    });
+    let tracking = &get(&server, "/api/state").json()["tracking"];
+    assert_eq!(tracking["lost"], true);
+    assert_eq!(tracking["lost_scans"], 3);
     server.stop();
 }
 
