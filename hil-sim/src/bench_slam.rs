@@ -72,7 +72,8 @@ pub struct BenchSlamRow {
     pub loop_closure_searches: usize,
     /// Loop-closure constraints that entered the pose graph.
     pub loop_closures: usize,
-    /// Loop closures found but rejected: no second match agreed with them.
+    /// Loop closures found but rejected: no second match agreed with them, or the graph's
+    /// robust kernel switched them off.
     pub rejected_closures: usize,
     /// Scans local tracking could not place (flagged lost).
     pub lost_scans: usize,
@@ -182,7 +183,7 @@ pub fn bench_slam(
             relations: MeanError::of(summary.relations.as_ref()),
             loop_closure_searches: stats.loop_closure_searches + stats.chain_closure_searches,
             loop_closures: stats.loop_closures,
-            rejected_closures: stats.rejected_closures,
+            rejected_closures: stats.rejected_closures + stats.switched_off_closures,
             lost_scans: stats.lost_scans,
             refinement_constraints: stats.refinement_constraints,
         });

@@ -24,6 +24,15 @@ pub enum RobustKernel {
         /// Mahalanobis distance around which the weight halves; `> 0`.
         scale: f64,
     },
+    /// Dynamic covariance scaling (Agarwal, Tipaldi, Spinello, Stachniss and Burgard 2013,
+    /// "Robust map optimization using dynamic covariance scaling"): the edge's information is
+    /// scaled by `s² = min(1, 2Φ/(Φ + χ²))²`, so an edge that disagrees with the rest of the
+    /// graph by far more than `Φ` all but switches itself off. The cost whose derivative that
+    /// weight is: `χ²` up to `Φ`, then `3Φ − 4Φ²/(Φ + χ²)`, bounded by `3Φ`. Not convex.
+    Dcs {
+        /// `Φ`, the χ² up to which the edge counts in full; `> 0`.
+        phi: f64,
+    },
 }
 
 impl RobustKernel {
@@ -37,6 +46,7 @@ impl RobustKernel {
         let parameter = match *self {
             RobustKernel::Huber { delta } => delta,
             RobustKernel::Cauchy { scale } => scale,
+            RobustKernel::Dcs { phi } => phi,
         };
         if !parameter.is_finite() {
             return Err(PoseGraphError::NonFinite("a robust kernel parameter"));
@@ -61,6 +71,13 @@ impl RobustKernel {
                 let scale_sq = scale * scale;
                 scale_sq * (chi2 / scale_sq).ln_1p()
             }
+            RobustKernel::Dcs { phi } => {
+                if chi2 <= phi {
+                    chi2
+                } else {
+                    3.0 * phi - 4.0 * phi * phi / (phi + chi2)
+                }
+            }
         }
     }
 
@@ -76,6 +93,10 @@ impl RobustKernel {
                 }
             }
             RobustKernel::Cauchy { scale } => 1.0 / (1.0 + chi2 / (scale * scale)),
+            RobustKernel::Dcs { phi } => {
+                let scaling = (2.0 * phi / (phi + chi2)).min(1.0);
+                scaling * scaling
+            }
         }
     }
 }
@@ -100,6 +121,7 @@ mod tests {
         for kernel in [
             RobustKernel::Huber { delta: 1.5 },
             RobustKernel::Cauchy { scale: 2.0 },
+            RobustKernel::Dcs { phi: 1.0 },
         ] {
             assert!((kernel.cost(1e-6) - 1e-6).abs() < 1e-11, "{kernel:?}");
             assert!((kernel.weight(1e-6) - 1.0).abs() < 1e-6, "{kernel:?}");
@@ -111,6 +133,7 @@ mod tests {
         for kernel in [
             RobustKernel::Huber { delta: 1.5 },
             RobustKernel::Cauchy { scale: 2.0 },
+            RobustKernel::Dcs { phi: 1.0 },
         ] {
             for chi2 in [0.5, 2.0, 9.0, 100.0] {
                 let step = 1e-6;

@@ -12,7 +12,7 @@ use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
-use crate::pose_graph::{Edge, NodeId, PoseGraph, RobustKernel};
+use crate::pose_graph::{Edge, EdgeId, NodeId, PoseGraph};
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
@@ -37,6 +37,10 @@ pub struct SlamStats {
     /// Loop closures found and rejected: no second one agreed with them on the motion local
     /// tracking measured between them (chain closures included; those still waiting count).
     pub rejected_closures: usize,
+    /// Constraints in the graph (loop closures and refinement) that its robust kernel all but
+    /// switched off at the last optimisation: weighted below one quarter, as they disagree
+    /// with the rest of the graph ([`SlamOptions::loop_closure_kernel`]).
+    pub switched_off_closures: usize,
     /// Scan-in-chain searches, for scans no submap took.
     pub chain_closure_searches: usize,
     /// Of the loop-closure constraints, those found in a chain of earlier scans.
@@ -93,6 +97,8 @@ pub struct GraphSlam {
     chains: ChainCloser,
     /// Every scan added (trusted beams), for the chains.
     scans: Vec<Scan>,
+    /// The loop-closure and refinement constraints in the graph.
+    closure_edges: Vec<EdgeId>,
     stats: SlamStats,
 }
 
@@ -114,6 +120,7 @@ impl GraphSlam {
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
             chains: ChainCloser::new(&options)?,
             scans: Vec::new(),
+            closure_edges: Vec::new(),
             stats: SlamStats::default(),
             options,
         })
@@ -206,8 +213,16 @@ impl GraphSlam {
 
     /// What happened so far.
     pub fn stats(&self) -> SlamStats {
+        let kernel = self.options.loop_closure_kernel;
+        let switched_off_closures = self
+            .closure_edges
+            .iter()
+            .filter_map(|&id| self.graph.edge_chi2(id))
+            .filter(|&chi2| kernel.weight(chi2) < 0.25)
+            .count();
         SlamStats {
             rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
+            switched_off_closures,
             ..self.stats
         }
     }
@@ -335,14 +350,13 @@ impl GraphSlam {
             closure.pose_in_submap,
             closure_information(&self.options, closure.information_in_robot.as_ref()),
         )
-        .with_kernel(RobustKernel::Huber {
-            delta: self.options.loop_closure_huber_delta,
-        });
-        let added = self.graph.add_edge(edge).is_ok();
-        if added {
-            self.closures_since_optimization += 1;
-        }
-        added
+        .with_kernel(self.options.loop_closure_kernel);
+        let Ok(id) = self.graph.add_edge(edge) else {
+            return false;
+        };
+        self.closure_edges.push(id);
+        self.closures_since_optimization += 1;
+        true
     }
 
     fn optimize(&mut self) {

@@ -6,7 +6,7 @@ use super::motion_prior::MotionPriorOptions;
 use super::point_map::PointMapOptions;
 use super::slam_submap::SubmapFit;
 use crate::grid::SubmapOptions;
-use crate::pose_graph::OptimizeOptions;
+use crate::pose_graph::{OptimizeOptions, RobustKernel};
 use crate::scan_match::Scan;
 
 /// Everything [`super::GraphSlam`] can be told.
@@ -42,8 +42,11 @@ pub struct SlamOptions {
     pub degenerate_sigma_m: f64,
     /// Standard deviation of a loop-closure constraint: translation (m), rotation (rad).
     pub loop_closure_sigma: [f64; 2],
-    /// Huber threshold of loop-closure constraints, in standard deviations.
-    pub loop_closure_huber_delta: f64,
+    /// The robust kernel of loop-closure (and refinement) constraints: dynamic covariance
+    /// scaling with `Φ = 10`, about the 98 % point of χ² with three degrees of freedom, so a
+    /// closure that agrees with the graph as well as its covariance says keeps its full
+    /// weight, and one that disagrees by far more all but switches itself off.
+    pub loop_closure_kernel: RobustKernel,
     /// Pose-graph solver.
     pub optimize: OptimizeOptions,
 }
@@ -90,7 +93,7 @@ impl Default for SlamOptions {
             degenerate_information_ratio: 0.03,
             degenerate_sigma_m: 3.0,
             loop_closure_sigma: [0.03, 0.5f64.to_radians()],
-            loop_closure_huber_delta: 3.0,
+            loop_closure_kernel: RobustKernel::Dcs { phi: 10.0 },
             optimize: OptimizeOptions::default(),
         }
     }
