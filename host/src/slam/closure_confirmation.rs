@@ -168,6 +168,31 @@ mod tests {
             information_in_robot: None,
         };
         assert_eq!(confirmation.offer(second, &poses), vec![first, second]);
+        assert_eq!(confirmation.rejected_at_end(), 0);
+    }
+
+    #[test]
+    fn a_closure_no_second_one_agrees_with_is_counted_rejected() {
+        let poses = straight_line(100);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
+        let lonely = FoundClosure {
+            submap_first_node: 0,
+            node: 40,
+            pose_in_submap: Pose2::new(2.0, 1.0, 0.1),
+            information_in_robot: None,
+        };
+        assert!(confirmation.offer(lonely, &poses).is_empty());
+        // Waiting: rejected only if the run ends now.
+        assert_eq!(confirmation.rejected(), 0);
+        assert_eq!(confirmation.rejected_at_end(), 1);
+        // Another closure beyond the window pushes the first out, unconfirmed.
+        let later = FoundClosure {
+            node: 40 + ConfirmationOptions::default().window_scans + 1,
+            ..lonely
+        };
+        assert!(confirmation.offer(later, &poses).is_empty());
+        assert_eq!(confirmation.rejected(), 1);
+        assert_eq!(confirmation.rejected_at_end(), 2);
     }
 
     #[test]

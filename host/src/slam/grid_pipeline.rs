@@ -276,6 +276,29 @@ mod tests {
     }
 
     #[test]
+    fn a_map_too_wide_for_the_finest_cells_is_coarsened_not_cut() {
+        // Two scans 300 m apart: 6 000 cells at 5 cm.
+        let scan = Scan::from_points_in_robot(vec![Some([1.0, 0.0]), Some([1.0, 0.5])]);
+        let poses = [Pose2::IDENTITY, Pose2::new(300.0, 0.0, 0.0)];
+        let resolution_m = global_grid_resolution_m(poses.iter().map(|&p| (p, &scan)), 0.05);
+        assert_eq!(resolution_m, 0.1);
+        let near = [Pose2::IDENTITY, Pose2::new(30.0, 0.0, 0.0)];
+        assert_eq!(
+            global_grid_resolution_m(near.iter().map(|&p| (p, &scan)), 0.05),
+            0.05
+        );
+        let grid = ProbabilityGrid::from_scans(
+            poses.iter().map(|&p| (p, &scan)),
+            resolution_m,
+            Default::default(),
+            RangeInserterOptions::default(),
+        );
+        // Both end points of the far scan are in the grid.
+        assert!(grid.probability_at([301.0, 0.0]).is_some());
+        assert!(grid.probability_at([1.0, 0.0]).is_some());
+    }
+
+    #[test]
     fn finishing_refines_the_run_and_ends_it() {
         let events = room_events(110);
         let mut pipeline =

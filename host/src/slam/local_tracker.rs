@@ -455,6 +455,38 @@ mod tests {
     }
 
     #[test]
+    fn a_scan_of_another_place_is_flagged_lost_and_keeps_the_prediction() {
+        let mut tracker = LocalTracker::new(SlamOptions::default()).unwrap();
+        let step = Pose2::new(0.1, 0.0, 0.0);
+        let mut truth = Pose2::new(0.3, -0.2, 0.0);
+        let mut last = None;
+        for _ in 0..5 {
+            let tracked = tracker.track(&room_scan(truth), None);
+            assert!(!tracked.lost);
+            assert!(tracked.confidence > 0.0);
+            last = Some(tracked.pose_in_local);
+            truth = truth * step;
+        }
+        let last = last.expect("tracked");
+        // A hall 60 m across that the room's submap has seen nothing of: no candidate fits.
+        let hall = crate::scan_match::synthetic::polygon_walls(&[
+            [-30.0, -30.0],
+            [30.0, -30.0],
+            [30.0, 30.0],
+            [-30.0, 30.0],
+        ]);
+        let elsewhere = cast_front_scan(&hall, Pose2::new(0.0, 0.0, 0.4));
+        let tracked = tracker.track(&elsewhere, None);
+        assert!(tracked.lost, "{:?}", tracked.fit);
+        assert_eq!(tracked.confidence, 0.0);
+        // The prediction: the last step repeated.
+        let predicted = last * step;
+        let error = predicted.inverse() * tracked.pose_in_local;
+        assert!(error.x_m.hypot(error.y_m) < 0.02, "{error:?}");
+        assert!(tracked.information_in_robot.is_none());
+    }
+
+    #[test]
     fn a_turn_back_beyond_the_search_window_is_found() {
         // A turn of -30° and then one of +62° on the spot: the second lies outside the
         // ±45° window around both the repeated motion and standing still.
