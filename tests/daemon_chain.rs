@@ -262,11 +262,14 @@ fn demo_indoor_builds_an_occupancy_grid() {
         }
     }
     pipeline.finish();
-    let mut library = String::from("# host_time_s\tx_m\ty_m\ttheta_rad\n");
-    for (t, p) in pipeline.trajectory() {
+    let mut library = String::from("# host_time_s\tx_m\ty_m\ttheta_rad\tlost\n");
+    for ((t, p), lost) in pipeline.trajectory().into_iter().zip(pipeline.lost()) {
         library.push_str(&format!(
-            "{t:.6}\t{:.4}\t{:.4}\t{:.5}\n",
-            p.x_m, p.y_m, p.theta_rad
+            "{t:.6}\t{:.4}\t{:.4}\t{:.5}\t{}\n",
+            p.x_m,
+            p.y_m,
+            p.theta_rad,
+            u8::from(*lost)
         ));
     }
     let daemon = fs::read_to_string(out.join("trajectory.tsv")).expect("trajectory");

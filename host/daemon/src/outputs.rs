@@ -153,26 +153,38 @@ fn geo_referencing(outcome: &RunOutcome) -> Option<(LocalFrame, Pose2, Vec<[f64;
     Some((*georef.frame()?, alignment.enu_from_map, Vec::new()))
 }
 
-/// `(host_time_s, pose_in_map)` per scan from the pipeline that owns the pose.
-fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, Pose2)> {
+/// `(host_time_s, pose_in_map, lost)` per scan from the pipeline that owns the pose: `lost`
+/// when the grid method's local tracking could not place the scan (never for the EKF).
+fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, Pose2, bool)> {
     if let Some(ekf) = &outcome.ekf {
         return ekf
             .trajectory()
             .iter()
-            .map(|p| (p.time_s, p.pose_in_map))
+            .map(|p| (p.time_s, p.pose_in_map, false))
             .collect();
     }
-    outcome
-        .grid
-        .as_ref()
-        .map_or_else(Vec::new, |grid| grid.trajectory())
+    outcome.grid.as_ref().map_or_else(Vec::new, |grid| {
+        let lost = grid.lost();
+        grid.trajectory()
+            .into_iter()
+            .enumerate()
+            .map(|(i, (t, p))| (t, p, lost.get(i).copied().unwrap_or(false)))
+            .collect()
+    })
 }
 
-fn write_trajectory(path: &Path, rows: &[(f64, Pose2)]) -> io::Result<()> {
+fn write_trajectory(path: &Path, rows: &[(f64, Pose2, bool)]) -> io::Result<()> {
     let mut w = BufWriter::new(File::create(path)?);
-    writeln!(w, "# host_time_s\tx_m\ty_m\ttheta_rad")?;
-    for (t, p) in rows {
-        writeln!(w, "{t:.6}\t{:.4}\t{:.4}\t{:.5}", p.x_m, p.y_m, p.theta_rad)?;
+    writeln!(w, "# host_time_s\tx_m\ty_m\ttheta_rad\tlost")?;
+    for (t, p, lost) in rows {
+        writeln!(
+            w,
+            "{t:.6}\t{:.4}\t{:.4}\t{:.5}\t{}",
+            p.x_m,
+            p.y_m,
+            p.theta_rad,
+            u8::from(*lost)
+        )?;
     }
     w.flush()
 }
