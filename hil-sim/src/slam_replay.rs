@@ -73,7 +73,7 @@ pub struct SlamReplaySummary {
     /// What the pipeline did.
     pub slam: SlamStats,
     /// Cell size the map was drawn at, metres: the finest at which it fits whole
-    /// ([`GridPipeline::global_grid_resolution_m`]).
+    /// ([`GridPipeline::global_grid`]).
     pub map_resolution_m: f64,
     /// Error on the given relations, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -183,7 +183,8 @@ pub fn replay_carmen_slam(
     write_trajectory(&trajectory_path, &lasers, &poses_in_map, pipeline.lost())
         .map_err(write_error(&trajectory_path))?;
     // The map holds the beams the SLAM trusted.
-    let export = MapExport::from_grid(&pipeline.global_grid(), &MapExportOptions::default());
+    let global_grid = pipeline.global_grid();
+    let export = MapExport::from_grid(&global_grid, &MapExportOptions::default());
     for (name, save) in [
         (
             "map.pgm",
@@ -247,7 +248,7 @@ pub fn replay_carmen_slam(
         log: options.log.display().to_string(),
         odometry: options.odometry,
         slam: pipeline.stats(),
-        map_resolution_m: pipeline.global_grid_resolution_m(),
+        map_resolution_m: global_grid.limits().resolution_m(),
         relations,
         relations_agreement,
         reference_consecutive,

@@ -90,13 +90,12 @@ impl ClosureConfirmation {
     /// earlier closures it agrees with that are not in the graph yet, and `found` itself.
     pub fn offer(&mut self, found: FoundClosure, poses_in_local: &[Pose2]) -> Vec<FoundClosure> {
         let window = self.options.window_scans;
-        let before = self.recent.len();
-        let pending_before = self.recent.iter().filter(|(_, added)| !added).count();
-        self.recent
-            .retain(|(c, _)| c.node + window >= found.node && c.node <= found.node);
-        let pending_after = self.recent.iter().filter(|(_, added)| !added).count();
-        debug_assert!(self.recent.len() <= before);
-        self.rejected += pending_before - pending_after;
+        let rejected = &mut self.rejected;
+        self.recent.retain(|(c, added)| {
+            let kept = c.node + window >= found.node && c.node <= found.node;
+            *rejected += usize::from(!kept && !added);
+            kept
+        });
         let mut confirmed = Vec::new();
         let mut agrees = false;
         for (earlier, added) in &mut self.recent {
@@ -148,16 +147,21 @@ mod tests {
         (0..n).map(|i| Pose2::new(i as f64, 0.0, 0.0)).collect()
     }
 
-    #[test]
-    fn a_single_closure_waits_and_an_agreeing_one_confirms_both() {
-        let poses = straight_line(60);
-        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
-        let first = FoundClosure {
+    /// Node 40 found in the submap of node 0.
+    fn closure_at_node_40() -> FoundClosure {
+        FoundClosure {
             submap_first_node: 0,
             node: 40,
             pose_in_submap: Pose2::new(2.0, 1.0, 0.1),
             information_in_robot: None,
-        };
+        }
+    }
+
+    #[test]
+    fn a_single_closure_waits_and_an_agreeing_one_confirms_both() {
+        let poses = straight_line(60);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
+        let first = closure_at_node_40();
         assert!(confirmation.offer(first, &poses).is_empty());
         // Five scans on, five metres on along the robot's heading in the submap.
         let (sin, cos) = 0.1f64.sin_cos();
@@ -175,12 +179,7 @@ mod tests {
     fn a_closure_no_second_one_agrees_with_is_counted_rejected() {
         let poses = straight_line(100);
         let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
-        let lonely = FoundClosure {
-            submap_first_node: 0,
-            node: 40,
-            pose_in_submap: Pose2::new(2.0, 1.0, 0.1),
-            information_in_robot: None,
-        };
+        let lonely = closure_at_node_40();
         assert!(confirmation.offer(lonely, &poses).is_empty());
         // Waiting: rejected only if the run ends now.
         assert_eq!(confirmation.rejected(), 0);

@@ -213,16 +213,8 @@ impl GraphSlam {
 
     /// What happened so far.
     pub fn stats(&self) -> SlamStats {
-        let kernel = self.options.loop_closure_kernel;
-        let switched_off_closures = self
-            .closure_edges
-            .iter()
-            .filter_map(|&id| self.graph.edge_chi2(id))
-            .filter(|&chi2| kernel.weight(chi2) < 0.25)
-            .count();
         SlamStats {
             rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
-            switched_off_closures,
             ..self.stats
         }
     }
@@ -366,6 +358,13 @@ impl GraphSlam {
             self.stats.failed_optimizations += 1;
             return;
         }
+        let kernel = self.options.loop_closure_kernel;
+        self.stats.switched_off_closures = self
+            .closure_edges
+            .iter()
+            .filter_map(|&id| self.graph.edge_chi2(id))
+            .filter(|&chi2| kernel.weight(chi2) < 0.25)
+            .count();
         let last = self.poses_in_local.len().saturating_sub(1);
         if let (Some(pose_in_map), Some(pose_in_local)) =
             (self.pose_in_map(last), self.poses_in_local.last())

@@ -19,7 +19,7 @@ pub struct GridPipelineOptions {
     /// Cell size of the global occupancy grid, metres: the finest it is drawn at. A map wider
     /// than [`MAX_SIDE_CELLS`](crate::grid::MAX_SIDE_CELLS) of these (with room to grow) is
     /// drawn at twice the cell size, or four times, and so on, so that it is never cut
-    /// ([`GridPipeline::global_grid_resolution_m`]).
+    /// ([`GridPipeline::global_grid`]; its limits give the cell size used).
     pub map_resolution_m: f64,
     /// The laser's pose on the robot: the link's scans (in the sensor frame) are moved into the
     /// robot frame with it, so the poses are the robot's.
@@ -184,7 +184,8 @@ impl GridPipeline {
 
     /// The global occupancy grid from every scan at its current pose.
     ///
-    /// Drawn at [`GridPipeline::global_grid_resolution_m`], so that every scan fits whole.
+    /// Drawn at the options' `map_resolution_m`, doubled as often as needed for every scan to
+    /// fit whole.
     pub fn global_grid(&self) -> ProbabilityGrid {
         let poses = self.poses_in_map();
         let resolution_m = global_grid_resolution_m(
@@ -196,15 +197,6 @@ impl GridPipeline {
             resolution_m,
             Default::default(),
             RangeInserterOptions::default(),
-        )
-    }
-
-    /// The cell size [`GridPipeline::global_grid`] draws at: the options' `map_resolution_m`,
-    /// doubled as often as needed for the map to fit whole.
-    pub fn global_grid_resolution_m(&self) -> f64 {
-        global_grid_resolution_m(
-            self.poses_in_map().into_iter().zip(self.scans.iter()),
-            self.options.map_resolution_m,
         )
     }
 }

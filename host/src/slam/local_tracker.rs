@@ -406,13 +406,14 @@ fn ambiguity(
     candidates: &[Alignment],
     fit_measurements: f64,
 ) -> (Matrix3<f64>, f64) {
+    // Within a centimetre and a tenth of a degree: one pose.
+    let same = |d: Pose2| d.x_m.hypot(d.y_m) < 0.01 && d.theta_rad.abs() < 0.1f64.to_radians();
     let mut distinct: Vec<&Alignment> = Vec::new();
     for candidate in candidates {
-        let same = distinct.iter().any(|kept| {
-            let d = kept.pose_in_local.inverse() * candidate.pose_in_local;
-            d.x_m.hypot(d.y_m) < 0.01 && d.theta_rad.abs() < 0.1f64.to_radians()
-        });
-        if !same {
+        if !distinct
+            .iter()
+            .any(|kept| same(kept.pose_in_local.inverse() * candidate.pose_in_local))
+        {
             distinct.push(candidate);
         }
     }
@@ -424,7 +425,7 @@ fn ambiguity(
         let offset = nalgebra::Vector3::new(d.x_m, d.y_m, d.theta_rad);
         covariance += weight * offset * offset.transpose();
         total_weight += weight;
-        if d.x_m.hypot(d.y_m) < 0.01 && d.theta_rad.abs() < 0.1f64.to_radians() {
+        if same(d) {
             best_weight += weight;
         }
     }
