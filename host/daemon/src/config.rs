@@ -297,7 +297,15 @@ impl DaemonConfig {
             path: path.to_path_buf(),
             source,
         })?;
-        let config: DaemonConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
+        DaemonConfig::parse(&text, path)
+    }
+
+    /// Reads and checks the text of a configuration file; `path` names it in errors.
+    ///
+    /// # Errors
+    /// Invalid TOML, an unknown field, a value out of range.
+    pub fn parse(text: &str, path: &Path) -> Result<DaemonConfig, ConfigError> {
+        let config: DaemonConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;

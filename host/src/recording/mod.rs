@@ -7,7 +7,7 @@
 //! chunk.
 //!
 //! * [`Recorder`]: writes a recording as the run goes.
-//! * [`read_recording`]: reads one back, cut short or not.
+//! * [`read_recording`]: reads one back, cut short or not ([`read_recording_from`] from any reader).
 //! * [`topics`]: the channels the host writes besides the board's ([`board_topic`]).
 //! * [`foxglove_messages`] and [`json_schema`]: the encodings the recording shares with the
 //!   daemon's live view.
@@ -23,5 +23,7 @@ pub mod topics;
 
 pub use board_message::board_topic;
 pub use error::RecordingError;
-pub use reader::{LinkDirection, LinkRecord, RawRead, Recording, read_recording};
+pub use reader::{
+    LinkDirection, LinkRecord, RawRead, Recording, read_recording, read_recording_from,
+};
 pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

@@ -80,11 +80,18 @@ pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
         path: path.to_path_buf(),
         source,
     })?;
-    read_from(BufReader::new(file), path)
+    read_recording_from(BufReader::new(file), path)
 }
 
-/// Reads a recording from `source`; `path` names it in errors.
-fn read_from(mut source: impl Read, path: &Path) -> Result<Recording, RecordingError> {
+/// Reads a recording from `source` (a file's bytes, a pipe); `path` names it in errors. As
+/// [`read_recording`] after opening the file.
+///
+/// # Errors
+/// As [`read_recording`].
+pub fn read_recording_from(
+    mut source: impl Read,
+    path: &Path,
+) -> Result<Recording, RecordingError> {
     let mut magic = [0u8; 8];
     match source.read_exact(&mut magic) {
         Ok(()) if magic == mcap::MAGIC => {}
@@ -446,7 +453,15 @@ mod tests {
         bytes.extend(4u64.to_le_bytes());
         bytes.extend([0xFF; 4]);
         bytes.extend(mcap::MAGIC);
-        let err = read_from(Cursor::new(bytes), &path.0).unwrap_err();
+        let err = read_recording_from(Cursor::new(bytes), &path.0).unwrap_err();
+        assert!(matches!(err, RecordingError::Corrupt { .. }), "{err}");
+
+        // Found by the `recording` fuzz target: a channel record whose strings claim
+        // 2³² − 1 bytes each (`host/fuzz/regressions/recording/`).
+        let fuzzed = include_bytes!(
+            "../../fuzz/regressions/recording/oom-ca07c197882ed31f8767e09228b7a7eb11f5d40c"
+        );
+        let err = read_recording_from(Cursor::new(&fuzzed[..]), &path.0).unwrap_err();
         assert!(matches!(err, RecordingError::Corrupt { .. }), "{err}");
 
         let missing = read_recording(Path::new("/nonexistent/run.mcap")).unwrap_err();
@@ -467,12 +482,12 @@ mod tests {
         record(&mut recorder, &reads, per_flush);
         recorder.finish().unwrap();
         let bytes = std::fs::read(&path.0).unwrap();
-        let full = read_from(Cursor::new(&bytes), &path.0).unwrap();
+        let full = read_recording_from(Cursor::new(&bytes), &path.0).unwrap();
         assert!(!full.truncated);
 
         let mut previous = 0;
         for cut in (8..bytes.len()).step_by(13) {
-            let part = read_from(Cursor::new(&bytes[..cut]), &path.0)
+            let part = read_recording_from(Cursor::new(&bytes[..cut]), &path.0)
                 .unwrap_or_else(|e| panic!("cut at {cut}: {e}"));
             assert!(part.truncated, "cut at {cut}");
             let n = part.raw_reads.len();

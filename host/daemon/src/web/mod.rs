@@ -35,5 +35,12 @@ pub use access::{AccessPolicy, generate_token};
 pub use map_render::{MapRenderError, render_map_png};
 pub use server::{DRAIN_LIMIT, WebContext, WebError, WebLimits, WebServer};
 
+/// The page and the API as a router of their own, behind `context`'s access policy and body
+/// limit, without a listener: to serve them within another server, or to answer requests
+/// in-process. [`WebServer::start`] serves this router.
+pub fn router(context: WebContext) -> axum::Router {
+    routes::router(std::sync::Arc::new(context))
+}
+
 #[cfg(test)]
 mod tests;
