@@ -10,6 +10,7 @@
 #![no_main]
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use arbitrary::{Arbitrary, Unstructured};
 use host::geoimage::GeoImage;
@@ -28,19 +29,20 @@ struct ImageFiles {
     prj: Option<String>,
 }
 
-/// A scratch folder of this process.
-fn scratch() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-fuzz-geo-image-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
+/// The scratch folder of this process, made once.
+fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("host-fuzz-geo-image-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        dir
+    })
 }
 
-fn write(path: &Path, bytes: Option<&[u8]>) {
-    match bytes {
-        Some(bytes) => std::fs::write(path, bytes).expect("scratch file"),
-        None => {
-            let _ = std::fs::remove_file(path);
-        }
+/// Empties the scratch folder, so that no input finds another's files beside it.
+fn clear(dir: &Path) {
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let _ = std::fs::remove_file(entry.path());
     }
 }
 
@@ -65,8 +67,9 @@ fuzz_target!(|data: &[u8]| {
     let dir = scratch();
     if data.starts_with(b"II*\0") || data.starts_with(b"MM\0*") {
         let path = dir.join("whole.tif");
-        write(&path, Some(data));
+        std::fs::write(&path, data).expect("scratch file");
         check(&path);
+        clear(dir);
         return;
     }
     let Ok(files) = ImageFiles::arbitrary(&mut Unstructured::new(data)) else {
@@ -79,22 +82,17 @@ fuzz_target!(|data: &[u8]| {
         _ => ("tiff", "wld"),
     };
     let path = dir.join(format!("image.{extension}"));
-    write(&path, Some(&files.image));
-    write(
-        &dir.join(format!("image.{world_extension}")),
-        files.world_file.as_deref().map(str::as_bytes),
-    );
-    write(
-        &dir.join(format!("image.{extension}.aux.xml")),
-        files.aux_xml.as_deref().map(str::as_bytes),
-    );
-    write(
-        &dir.join("image.prj"),
-        files.prj.as_deref().map(str::as_bytes),
-    );
-    check(&path);
-    // The next input must not find this one's sidecars beside another format.
-    for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
-        let _ = std::fs::remove_file(entry.path());
+    let sidecars = [
+        (format!("image.{world_extension}"), files.world_file),
+        (format!("image.{extension}.aux.xml"), files.aux_xml),
+        ("image.prj".to_owned(), files.prj),
+    ];
+    std::fs::write(&path, &files.image).expect("scratch file");
+    for (name, text) in sidecars {
+        if let Some(text) = text {
+            std::fs::write(dir.join(name), text).expect("scratch file");
+        }
     }
+    check(&path);
+    clear(dir);
 });
