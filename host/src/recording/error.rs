@@ -44,6 +44,17 @@ pub enum RecordingError {
         /// What the MCAP reader found.
         source: mcap::McapError,
     },
+    /// A record of the file has a field that claims more bytes than the record holds:
+    /// damaged, and refused before the MCAP library reserves what the field claims.
+    #[error("the recording {path} is damaged: in a record with opcode {opcode:#04x}, {overrun}")]
+    FieldOverrun {
+        /// The file read.
+        path: PathBuf,
+        /// The record's MCAP opcode.
+        opcode: u8,
+        /// Which field, and by how much.
+        overrun: super::record_fields::FieldOverrun,
+    },
     /// A message could not be encoded for its channel.
     #[error("cannot encode a message for {topic}: {reason}")]
     Encode {

@@ -18,6 +18,7 @@ mod error;
 pub mod foxglove_messages;
 pub mod json_schema;
 pub mod reader;
+mod record_fields;
 pub mod recorder;
 pub mod topics;
 
@@ -26,4 +27,5 @@ pub use error::RecordingError;
 pub use reader::{
     LinkDirection, LinkRecord, RawRead, Recording, read_recording, read_recording_from,
 };
+pub use record_fields::FieldOverrun;
 pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

@@ -4,17 +4,21 @@
 //! end inside a chunk. The reader goes through the file from the start, keeps every chunk
 //! that is complete and whose CRC checks, and reports the file as truncated when it ends
 //! before the footer. A record whose length runs past the end of the file reads the same way,
-//! as a file cut inside that record. Anything else that is wrong is an error.
+//! as a file cut inside that record. Anything else that is wrong in the header, the channels
+//! and the messages is an error; the records a replay does not need (schemas, attachments,
+//! metadata, indexes, the summary) are passed over unparsed.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{self, BufReader, Read};
 use std::path::Path;
 
 use mcap::McapError;
-use mcap::sans_io::LinearReaderOptions;
+use mcap::records::{Record, op};
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::error::RecordingError;
+use super::record_fields;
 use super::recorder::time_s;
 use super::topics::{RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
 
@@ -108,15 +112,79 @@ pub fn read_recording_from(
         // A chunk is used only once all of it is there and its CRC checks.
         .with_prevalidate_chunk_crcs(true)
         .with_record_length_limit(MAX_RECORD_BYTES);
-    let messages = mcap::io::MessageReader::new_with_options(magic.chain(source), options);
+    let mut reader = LinearReader::new_with_options(options);
+    let mut source = magic.chain(source);
+    let corrupt = |source| RecordingError::Corrupt {
+        path: path.to_path_buf(),
+        source,
+    };
 
     let mut recording = Recording::default();
     let mut reads = Vec::new();
     let mut link = Vec::new();
-    for message in messages {
-        match message {
-            Ok(message) => {
-                let topic = &message.channel.topic;
+    let mut topics: HashMap<u16, String> = HashMap::new();
+    let mut past_data_end = false;
+    while let Some(event) = reader.next_event() {
+        let (opcode, data) = match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let read = loop {
+                    match source.read(reader.insert(need)) {
+                        Ok(n) => break n,
+                        Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                        Err(source) => {
+                            return Err(RecordingError::Open {
+                                path: path.to_path_buf(),
+                                source,
+                            });
+                        }
+                    }
+                };
+                reader.notify_read(read);
+                continue;
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
+            Err(McapError::UnexpectedEof) => {
+                recording.truncated = true;
+                break;
+            }
+            Err(source) => return Err(corrupt(source)),
+        };
+        // The summary repeats what the data section holds; the replay needs only the
+        // header, the channels and the messages, and parses nothing else.
+        let layout = match opcode {
+            op::DATA_END => {
+                past_data_end = true;
+                continue;
+            }
+            _ if past_data_end => continue,
+            op::HEADER => record_fields::HEADER,
+            op::CHANNEL => record_fields::CHANNEL,
+            op::MESSAGE => &[],
+            _ => continue,
+        };
+        if let Err(overrun) = record_fields::check_fields(data, layout) {
+            return Err(RecordingError::FieldOverrun {
+                path: path.to_path_buf(),
+                opcode,
+                overrun,
+            });
+        }
+        match mcap::parse_record(opcode, data).map_err(corrupt)? {
+            Record::Channel(channel) => match topics.get(&channel.id) {
+                Some(topic) if *topic != channel.topic => {
+                    return Err(corrupt(McapError::ConflictingChannels(channel.topic)));
+                }
+                _ => {
+                    topics.insert(channel.id, channel.topic);
+                }
+            },
+            Record::Message { header, data } => {
+                let Some(topic) = topics.get(&header.channel_id) else {
+                    return Err(corrupt(McapError::UnknownChannel(
+                        header.sequence,
+                        header.channel_id,
+                    )));
+                };
                 *recording.message_counts.entry(topic.clone()).or_default() += 1;
                 let direction = match topic.as_str() {
                     RAW_TOPIC => Some(LinkDirection::FromBoard),
@@ -125,23 +193,14 @@ pub fn read_recording_from(
                     _ => None,
                 };
                 if let Some(direction) = direction {
-                    let bytes = message.data.into_owned();
+                    let bytes = data.into_owned();
                     if direction == LinkDirection::FromBoard {
-                        reads.push((message.log_time, bytes.clone()));
+                        reads.push((header.log_time, bytes.clone()));
                     }
-                    link.push((message.log_time, direction, bytes));
+                    link.push((header.log_time, direction, bytes));
                 }
             }
-            Err(McapError::UnexpectedEof) => {
-                recording.truncated = true;
-                break;
-            }
-            Err(source) => {
-                return Err(RecordingError::Corrupt {
-                    path: path.to_path_buf(),
-                    source,
-                });
-            }
+            _ => {}
         }
     }
     // Stable: records with equal times stay in file order.
@@ -454,15 +513,35 @@ mod tests {
         bytes.extend([0xFF; 4]);
         bytes.extend(mcap::MAGIC);
         let err = read_recording_from(Cursor::new(bytes), &path.0).unwrap_err();
-        assert!(matches!(err, RecordingError::Corrupt { .. }), "{err}");
+        assert!(
+            matches!(
+                err,
+                RecordingError::FieldOverrun {
+                    opcode: op::HEADER,
+                    ..
+                }
+            ),
+            "{err}"
+        );
 
         // Found by the `recording` fuzz target: a channel record whose strings claim
-        // 2³² − 1 bytes each (`host/fuzz/regressions/recording/`).
+        // 2³² − 1 bytes each (`host/fuzz/regressions/recording/`), refused before the MCAP
+        // library reserves that much.
         let fuzzed = include_bytes!(
             "../../fuzz/regressions/recording/oom-ca07c197882ed31f8767e09228b7a7eb11f5d40c"
         );
         let err = read_recording_from(Cursor::new(&fuzzed[..]), &path.0).unwrap_err();
-        assert!(matches!(err, RecordingError::Corrupt { .. }), "{err}");
+        assert!(
+            matches!(
+                err,
+                RecordingError::FieldOverrun {
+                    opcode: op::CHANNEL,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("4294967295 bytes"), "{err}");
 
         let missing = read_recording(Path::new("/nonexistent/run.mcap")).unwrap_err();
         assert!(matches!(missing, RecordingError::Open { .. }), "{missing}");
