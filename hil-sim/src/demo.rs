@@ -123,20 +123,15 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     };
 
     let relay = PtyLink::open()?;
-    let mut config = DaemonConfig::default();
-    config.link.port = relay.board_path().display().to_string();
-    config.slam.method = if outdoor {
-        SlamMethod::Ekf
-    } else {
-        SlamMethod::Grid
-    };
-    config.slam.grid_max_range_m = 8.0;
+    let mut config = daemon_config(
+        options.world,
+        &scenario,
+        relay.board_path(),
+        image_path.clone(),
+        &options.out,
+    )?;
     config.web.listen = options.serve;
     config.web.foxglove_listen = options.foxglove;
-    config.record.path = Some(options.out.join("run.mcap"));
-    config.georef.image.clone_from(&image_path);
-    let datum = scenario.datum();
-    config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);
     config.validate().map_err(io::Error::other)?;
 
     let opener = SerialPortOpener {
@@ -213,8 +208,37 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     })
 }
 
+/// The daemon's configuration for a run on `scenario`: the board at `port`, EKF SLAM with GPS
+/// and the aerial image `image` outdoors, the occupancy grid indoors, recording to
+/// `out/run.mcap`, the web view on its default address.
+///
+/// # Errors
+/// A configuration the daemon would refuse.
+pub(crate) fn daemon_config(
+    world: WorldKind,
+    scenario: &Scenario,
+    port: &Path,
+    image: Option<PathBuf>,
+    out: &Path,
+) -> io::Result<DaemonConfig> {
+    let mut config = DaemonConfig::default();
+    config.link.port = port.display().to_string();
+    config.slam.method = if world == WorldKind::Outdoor {
+        SlamMethod::Ekf
+    } else {
+        SlamMethod::Grid
+    };
+    config.slam.grid_max_range_m = 8.0;
+    config.record.path = Some(out.join("run.mcap"));
+    config.georef.image = image;
+    let datum = scenario.datum();
+    config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);
+    config.validate().map_err(io::Error::other)?;
+    Ok(config)
+}
+
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.
-fn write_aerial(scenario: &Scenario, out: &Path) -> io::Result<PathBuf> {
+pub(crate) fn write_aerial(scenario: &Scenario, out: &Path) -> io::Result<PathBuf> {
     let aerial = render_aerial(scenario, AERIAL_PIXEL_M);
     let path = out.join("aerial.tif");
     write_geotiff_geographic_rgb8(

@@ -19,5 +19,6 @@ pub mod replay;
 pub mod run;
 pub mod sim_time;
 pub mod slam_replay;
+pub mod soak;
 pub mod victoria_slam;
 pub mod world;

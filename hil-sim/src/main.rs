@@ -20,6 +20,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     Demo(cli::demo::DemoArgs),
+    Soak(cli::soak::SoakArgs),
     Run(cli::run::RunArgs),
     Replay(cli::replay::ReplayArgs),
     ReplayCarmen(cli::replay_carmen::ReplayCarmenArgs),
@@ -35,6 +36,7 @@ enum Command {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Demo(args) => cli::demo::run(args),
+        Command::Soak(args) => cli::soak::run(args),
         Command::Run(args) => cli::run::run(args),
         Command::Replay(args) => cli::replay::run(args),
         Command::ReplayCarmen(args) => cli::replay_carmen::run(args),

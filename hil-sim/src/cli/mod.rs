@@ -18,6 +18,7 @@ pub mod replay_carmen;
 pub mod replay_victoria;
 pub mod report;
 pub mod run;
+pub mod soak;
 
 /// What a subcommand's `run` returns: its error is printed by `main`, which then fails.
 pub type CliResult = Result<(), Box<dyn std::error::Error>>;
