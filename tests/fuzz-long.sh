@@ -2,13 +2,17 @@
 # Long fuzz runs: each target (all of them, or those named as arguments) until it has run
 # FUZZ_RUNS inputs (10 million) or for FUZZ_MAX_SECONDS (an hour), whichever comes first, one
 # after the other. Prints a line per target: executions, seconds, peak memory and whether
-# libFuzzer stopped on a crash. FUZZ_SANITIZER picks cargo-fuzz's sanitizer (`address`, the
-# default, as `tests/run.sh` builds the targets; `none` runs safe Rust two to four times
-# faster, with panics, timeouts and memory limits still caught). Each run's log is kept in target/fuzz-long/TARGET.log and
-# its corpus grows in the target's fuzz/corpus folder. Run from anywhere in the repository:
+# libFuzzer stopped on a crash. Each run's log is kept in target/fuzz-long/TARGET.log and
+# its corpus grows in the target's fuzz/corpus folder.
 #
-#     bash tests/fuzz-long.sh                  # every target, as docs/fuzzing.md records
-#     bash tests/fuzz-long.sh nmea recording   # only these
+# FUZZ_SANITIZER picks cargo-fuzz's sanitizer: `address` (the default, as tests/run.sh builds
+# the targets) or `none`, which runs safe Rust two to four times faster and still stops on
+# panics, timeouts and a resident memory over the limit, but not on a single oversized
+# allocation (libFuzzer's -malloc_limit_mb needs the sanitizer's hooks). Run from anywhere in
+# the repository:
+#
+#     bash tests/fuzz-long.sh                         # every target
+#     bash tests/fuzz-long.sh nmea_parser recording   # only these
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,22 +22,33 @@ sanitizer=${FUZZ_SANITIZER:-address}
 log_dir=$PWD/target/fuzz-long
 mkdir -p "$log_dir"
 
+# Whether the target $1 is among the names asked for (all when none was).
 wanted() {
-    [ $# -eq 1 ] && return 0
-    local target=$1
+    local target=$1 name
     shift
-    printf '%s\n' "$@" | grep -qx -- "$target"
+    [ $# -eq 0 ] && return 0
+    for name; do
+        [ "$name" = "$target" ] && return 0
+    done
+    return 1
 }
 
 printf 'target\texecutions\tseconds\tpeak_rss_mb\tresult (sanitizer: %s)\n' "$sanitizer"
 status=0
+found=()
 for dir in protocol firmware/lib host; do
     targets=$(cd "$dir" && cargo +nightly fuzz list)
     built=false
     for target in $targets; do
         wanted "$target" "$@" || continue
+        found+=("$target")
         if ! $built; then
-            (cd "$dir" && cargo +nightly fuzz build -s "$sanitizer" >/dev/null 2>&1)
+            build_log=$log_dir/build-${dir//\//-}.log
+            if ! (cd "$dir" && cargo +nightly fuzz build -s "$sanitizer") >"$build_log" 2>&1; then
+                printf '%s\t-\t-\t-\tnot built: see %s\n' "$target" "$build_log"
+                status=1
+                break
+            fi
             built=true
         fi
         log=$log_dir/$target.log
@@ -51,5 +66,11 @@ for dir in protocol firmware/lib host; do
         printf '%s\t%s\t%s\t%s\t%s\n' "$target" "${executions:-?}" "$seconds" \
             "${peak_rss_mb:-?}" "$result"
     done
+done
+for name; do
+    if ! wanted "$name" "${found[@]+"${found[@]}"}" || [ ${#found[@]} -eq 0 ]; then
+        echo "no fuzz target named $name (cargo +nightly fuzz list in protocol, firmware/lib, host)" >&2
+        status=1
+    fi
 done
 exit $status

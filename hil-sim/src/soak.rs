@@ -11,11 +11,13 @@
 //! * Accounting: the simulation's own (every telegram the laser sent delivered intact or
 //!   counted as rejected), and the daemon's frame count equal to what the board sent up.
 //! * The kill: once the daemon has taken in the last frame it is sent `SIGKILL` after a
-//!   delay drawn from the seed (somewhere in its recorder's flush cycle). Its recording must
-//!   read, holding every frame up to its last flush: no more than the frames of one flush
-//!   interval may be missing.
-//! * The web view under abuse: from the second sample on, every tenth a goal request with a 10 MiB body is sent;
-//!   each must be answered `413`, and the memory check above covers what they cost.
+//!   delay drawn from the seed (somewhere in its recorder's flush cycle, which runs on the
+//!   wall clock). Its recording must read, holding every frame up to its last flush: no
+//!   more may be missing than the daemon took in over the last flush interval (and a
+//!   second) before the kill.
+//! * The web view under abuse: from the second sample on, every tenth sends a goal request
+//!   with a 10 MiB body; each must be answered `413`, and the memory check above covers what
+//!   they cost.
 
 use std::fs;
 use std::io::{self, BufRead, BufReader, Read, Write};
@@ -23,6 +25,7 @@ use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -96,7 +99,7 @@ pub fn every_fault_kind(duration_s: f64) -> FaultSpec {
 /// One sample of the daemon.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct SoakSample {
-    /// Wall-clock time since the daemon started, s.
+    /// Wall-clock time since the daemon started serving, s.
     pub wall_s: f64,
     /// Simulated time the daemon has taken in, s: its frames over those of the whole run,
     /// times the run's duration (filled in at the end; the board's clock, which the frames
@@ -123,7 +126,8 @@ pub struct RecordingCheck {
     pub frames: u64,
     /// Frames the daemon had counted but the recording does not hold.
     pub frames_missing: u64,
-    /// The most that may be missing: the frames of one flush interval (and one second).
+    /// The most that may be missing: the frames the daemon took in over the last flush
+    /// interval (and one second) of wall-clock time before the kill.
     pub frames_missing_allowed: u64,
 }
 
@@ -220,6 +224,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     )?;
     config.web.listen = SocketAddr::from(([127, 0, 0, 1], 0));
     config.web.foxglove_listen = Some(SocketAddr::from(([127, 0, 0, 1], 0)));
+    config.validate().map_err(io::Error::other)?;
     let flush_interval_s = config.record.flush_interval_s;
     let recording_path = options.out.join("run.mcap");
     let _ = fs::remove_file(&recording_path);
@@ -236,7 +241,8 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         std::thread::spawn(move || {
             let (mut sent, mut refused) = (0u64, 0u64);
             let mut taken = 0usize;
-            while !stop.load(Ordering::Relaxed) {
+            // Until told, or until the daemon is gone (killed on an error path).
+            while !stop.load(Ordering::Relaxed) && Path::new(&format!("/proc/{pid}")).exists() {
                 if let Ok(sample) = take_sample(pid, web, started) {
                     samples
                         .lock()
@@ -280,13 +286,8 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
             .join()
             .unwrap_or_else(|_| Err(io::Error::other("the simulation panicked")))
     });
-    let simulation = match simulation {
-        Ok(simulation) => simulation,
-        Err(e) => {
-            daemon.kill();
-            return Err(e);
-        }
-    };
+    // On an error the daemon is killed when dropped, and the sampler stops with it.
+    let simulation = simulation?;
     let frames_sent = simulation.counted.host_frames;
     let deadline = Instant::now() + DRAIN;
     let mut counters = daemon_counters(daemon.web)?;
@@ -295,13 +296,16 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         counters = daemon_counters(daemon.web)?;
     }
     let last_frame_at = Instant::now();
-    let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ 0x50AC);
-    let delay_s = rng.random_range(0.0..=flush_interval_s + 1.0);
-    std::thread::sleep(Duration::from_secs_f64(delay_s));
     stop_sampling.store(true, Ordering::Relaxed);
-    let (oversized_requests, oversized_requests_413) = sampler.join().unwrap_or((0, 0));
+    let (oversized_requests, oversized_requests_413) = sampler
+        .join()
+        .map_err(|_| io::Error::other("the sampling thread panicked"))?;
     // One last sample, the peak over the whole life included.
     let last = take_sample(daemon.child.id(), daemon.web, started)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ 0x50AC);
+    let delay_s = rng.random_range(0.0..=flush_interval_s + 1.0);
+    std::thread::sleep(Duration::from_secs_f64(delay_s).saturating_sub(last_frame_at.elapsed()));
+    let killed_at_s = started.elapsed().as_secs_f64();
     daemon.kill();
     let killed_after_last_frame_s = last_frame_at.elapsed().as_secs_f64();
     drop(device_end);
@@ -314,10 +318,19 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     }
     write_samples(&options.out.join("soak.tsv"), &samples)?;
 
+    // The recorder flushes on the wall clock: what it may not have flushed is what came in
+    // over the last flush interval (and a second) before the kill.
+    let flushed_by_s = killed_at_s - flush_interval_s - 1.0;
+    let frames_surely_flushed = samples
+        .iter()
+        .filter(|s| s.wall_s <= flushed_by_s)
+        .map(|s| s.frames)
+        .max()
+        .unwrap_or(0);
     let recording = check_recording(
         &recording_path,
         counters.frames,
-        ((flush_interval_s + 1.0) * frames_per_s).ceil() as u64,
+        counters.frames.saturating_sub(frames_surely_flushed),
     );
     let settled = samples
         .iter()
@@ -435,15 +448,23 @@ impl DaemonProcess {
                 }
             }
         });
+        let log = out.join("robot-host.log");
         match rx.recv_timeout(STARTUP) {
             Ok(web) => Ok(DaemonProcess { child, web }),
-            Err(_) => {
+            Err(RecvTimeoutError::Timeout) => {
                 let _ = child.kill();
                 let _ = child.wait();
                 Err(io::Error::other(format!(
                     "robot-host did not start serving within {} s (see {})",
                     STARTUP.as_secs(),
-                    out.join("robot-host.log").display()
+                    log.display()
+                )))
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                let status = child.wait()?;
+                Err(io::Error::other(format!(
+                    "robot-host stopped before serving ({status}; see {})",
+                    log.display()
                 )))
             }
         }
@@ -454,6 +475,13 @@ impl DaemonProcess {
         // `Child::kill` sends SIGKILL on Unix.
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+impl Drop for DaemonProcess {
+    /// A daemon left behind by an error is killed too.
+    fn drop(&mut self) {
+        self.kill();
     }
 }
 

@@ -4,9 +4,11 @@
 //! end inside a chunk. The reader goes through the file from the start, keeps every chunk
 //! that is complete and whose CRC checks, and reports the file as truncated when it ends
 //! before the footer. A record whose length runs past the end of the file reads the same way,
-//! as a file cut inside that record. Anything else that is wrong in the header, the channels
-//! and the messages is an error; the records a replay does not need (schemas, attachments,
-//! metadata, indexes, the summary) are passed over unparsed.
+//! as a file cut inside that record. A damaged header, channel or message record is an
+//! error, as are a message on an unknown channel and a channel whose topic changes; the
+//! records a replay does not need (schemas, attachments, metadata, indexes, statistics) are
+//! passed over unparsed. Before the MCAP library parses a header or a channel, its
+//! length-prefixed fields are checked against the record ([`record_fields`]).
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -76,9 +78,10 @@ pub struct Recording {
 /// [module documentation](self)).
 ///
 /// # Errors
-/// [`RecordingError::Open`] if the file cannot be read, [`RecordingError::NotMcap`] if it is
-/// not an MCAP file, [`RecordingError::Corrupt`] if it is damaged other than by being cut
-/// short.
+/// [`RecordingError::Open`] if the file cannot be opened or a read fails,
+/// [`RecordingError::NotMcap`] if it is not an MCAP file, [`RecordingError::FieldOverrun`]
+/// if a record's field claims more bytes than the record holds, [`RecordingError::Corrupt`]
+/// if it is damaged otherwise (other than by being cut short).
 pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
     let file = File::open(path).map_err(|source| RecordingError::Open {
         path: path.to_path_buf(),
@@ -113,22 +116,21 @@ pub fn read_recording_from(
         .with_prevalidate_chunk_crcs(true)
         .with_record_length_limit(MAX_RECORD_BYTES);
     let mut reader = LinearReader::new_with_options(options);
-    let mut source = magic.chain(source);
-    let corrupt = |source| RecordingError::Corrupt {
+    let mut input = magic.chain(source);
+    let corrupt = |error| RecordingError::Corrupt {
         path: path.to_path_buf(),
-        source,
+        source: error,
     };
 
     let mut recording = Recording::default();
     let mut reads = Vec::new();
     let mut link = Vec::new();
     let mut topics: HashMap<u16, String> = HashMap::new();
-    let mut past_data_end = false;
     while let Some(event) = reader.next_event() {
         let (opcode, data) = match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
                 let read = loop {
-                    match source.read(reader.insert(need)) {
+                    match input.read(reader.insert(need)) {
                         Ok(n) => break n,
                         Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                         Err(source) => {
@@ -147,22 +149,20 @@ pub fn read_recording_from(
                 recording.truncated = true;
                 break;
             }
-            Err(source) => return Err(corrupt(source)),
+            Err(error) => return Err(corrupt(error)),
         };
-        // The summary repeats what the data section holds; the replay needs only the
-        // header, the channels and the messages, and parses nothing else.
+        // The replay needs only the header, the channels (the summary's copies included,
+        // which must agree) and the messages, and parses nothing else.
         let layout = match opcode {
-            op::DATA_END => {
-                past_data_end = true;
-                continue;
-            }
-            _ if past_data_end => continue,
-            op::HEADER => record_fields::HEADER,
-            op::CHANNEL => record_fields::CHANNEL,
-            op::MESSAGE => &[],
+            op::HEADER => Some(record_fields::HEADER),
+            op::CHANNEL => Some(record_fields::CHANNEL),
+            // Fixed fields, then the payload: nothing to reserve.
+            op::MESSAGE => None,
             _ => continue,
         };
-        if let Err(overrun) = record_fields::check_fields(data, layout) {
+        if let Some(layout) = layout
+            && let Err(overrun) = record_fields::check_fields(data, layout)
+        {
             return Err(RecordingError::FieldOverrun {
                 path: path.to_path_buf(),
                 opcode,
@@ -185,7 +185,12 @@ pub fn read_recording_from(
                         header.channel_id,
                     )));
                 };
-                *recording.message_counts.entry(topic.clone()).or_default() += 1;
+                match recording.message_counts.get_mut(topic) {
+                    Some(count) => *count += 1,
+                    None => {
+                        recording.message_counts.insert(topic.clone(), 1);
+                    }
+                }
                 let direction = match topic.as_str() {
                     RAW_TOPIC => Some(LinkDirection::FromBoard),
                     SENT_TOPIC => Some(LinkDirection::ToBoard),

@@ -52,10 +52,11 @@ impl fmt::Display for FieldOverrun {
     }
 }
 
-/// Checks `record` (a record's body, without opcode and length) against `layout`.
+/// Checks `record` (a record's body, without opcode and length) against `layout`, reading
+/// it as the library's parser does.
 ///
-/// Only lengths are checked: a record too short for a fixed-size field passes, and the
-/// library's parser refuses it without reserving anything.
+/// Only lengths are checked: a record too short for a fixed-size field or a length prefix
+/// passes, and the library's parser refuses it without reserving anything.
 pub(super) fn check_fields(record: &[u8], layout: &[Field]) -> Result<(), FieldOverrun> {
     let mut rest = record;
     for (field_index, field) in layout.iter().enumerate() {
@@ -70,42 +71,69 @@ pub(super) fn check_fields(record: &[u8], layout: &[Field]) -> Result<(), FieldO
                 None => return Ok(()),
             },
             Field::String => match take_prefixed(rest) {
-                Some(Ok((_, after))) => rest = after,
-                Some(Err((claimed, available))) => return Err(overrun(claimed, available)),
-                None => return Ok(()),
+                Prefixed::Fits { after, .. } => rest = after,
+                Prefixed::Overruns { claimed, available } => {
+                    return Err(overrun(claimed, available));
+                }
+                Prefixed::Short => return Ok(()),
             },
-            Field::StringMap => match take_prefixed(rest) {
-                Some(Ok((mut map, after))) => {
-                    while !map.is_empty() {
-                        match take_prefixed(map) {
-                            Some(Ok((_, after))) => map = after,
-                            Some(Err((claimed, available))) => {
+            Field::StringMap => {
+                let Some((length, after)) = rest.split_first_chunk::<4>() else {
+                    return Ok(());
+                };
+                let map_bytes = u32::from_le_bytes(*length);
+                if usize::try_from(map_bytes).is_ok_and(|n| n > after.len()) {
+                    return Err(overrun(map_bytes, after.len()));
+                }
+                // The parser reads a key and a value while it has read fewer than the map's
+                // bytes, each from the rest of the record (not only from the map's bytes).
+                rest = after;
+                let mut read = 0usize;
+                while read < map_bytes as usize {
+                    for _key_then_value in 0..2 {
+                        match take_prefixed(rest) {
+                            Prefixed::Fits { field, after } => {
+                                read += 4 + field.len();
+                                rest = after;
+                            }
+                            Prefixed::Overruns { claimed, available } => {
                                 return Err(overrun(claimed, available));
                             }
-                            None => return Ok(()),
+                            Prefixed::Short => return Ok(()),
                         }
                     }
-                    rest = after;
                 }
-                Some(Err((claimed, available))) => return Err(overrun(claimed, available)),
-                None => return Ok(()),
-            },
+            }
         }
     }
     Ok(())
 }
 
-/// A `uint32` length and that many bytes from the front of `bytes`: `Some(Ok((field,
-/// rest)))`, `Some(Err((claimed, available)))` when the length runs past the end, `None` when
-/// not even the length is there.
-#[allow(clippy::type_complexity)]
-fn take_prefixed(bytes: &[u8]) -> Option<Result<(&[u8], &[u8]), (u32, usize)>> {
-    let (length, rest) = bytes.split_first_chunk::<4>()?;
+/// A `uint32` length and that many bytes from the front of some bytes.
+enum Prefixed<'a> {
+    /// The field fits: its bytes and what follows.
+    Fits { field: &'a [u8], after: &'a [u8] },
+    /// The length runs past the end: what it claims and the bytes there are after it.
+    Overruns { claimed: u32, available: usize },
+    /// Not even the length is there.
+    Short,
+}
+
+fn take_prefixed(bytes: &[u8]) -> Prefixed<'_> {
+    let Some((length, rest)) = bytes.split_first_chunk::<4>() else {
+        return Prefixed::Short;
+    };
     let claimed = u32::from_le_bytes(*length);
-    Some(match usize::try_from(claimed) {
-        Ok(n) if n <= rest.len() => Ok(rest.split_at(n)),
-        _ => Err((claimed, rest.len())),
-    })
+    match usize::try_from(claimed) {
+        Ok(n) if n <= rest.len() => {
+            let (field, after) = rest.split_at(n);
+            Prefixed::Fits { field, after }
+        }
+        _ => Prefixed::Overruns {
+            claimed,
+            available: rest.len(),
+        },
+    }
 }
 
 #[cfg(test)]
@@ -158,7 +186,7 @@ mod tests {
     }
 
     #[test]
-    fn a_string_longer_than_its_map_is_refused() {
+    fn a_string_of_a_map_longer_than_the_record_is_refused() {
         let mut record = channel("/a", &[("key", "value")]);
         // The map holds 16 bytes: the key's length, "key", the value's length, "value". The
         // key now claims 13 of the 12 left after its length.
@@ -167,6 +195,33 @@ mod tests {
         let err = check_fields(&record, CHANNEL).unwrap_err();
         assert_eq!((err.field_index, err.claimed_bytes), (4, 13));
         assert_eq!(err.available_bytes, 12);
+    }
+
+    #[test]
+    fn a_map_is_read_past_its_end_as_the_parser_reads_it() {
+        // A 4-byte map holding an empty key: the parser then reads the value's length from
+        // the bytes after the map, here 2³² − 1.
+        let mut record = vec![1, 0, 0, 0];
+        record.extend(0u32.to_le_bytes()); // topic ""
+        record.extend(0u32.to_le_bytes()); // encoding ""
+        record.extend(4u32.to_le_bytes()); // map of 4 bytes
+        record.extend(0u32.to_le_bytes()); // key ""
+        record.extend(u32::MAX.to_le_bytes()); // the value, after the map
+        let err = check_fields(&record, CHANNEL).unwrap_err();
+        assert_eq!(
+            (err.field_index, err.claimed_bytes),
+            (4, u64::from(u32::MAX))
+        );
+
+        // A value whose length straddles the map's end and the record's last bytes.
+        let mut record = vec![1, 0, 0, 0];
+        record.extend(0u32.to_le_bytes());
+        record.extend(0u32.to_le_bytes());
+        record.extend(6u32.to_le_bytes()); // map of 6 bytes
+        record.extend(0u32.to_le_bytes()); // key ""
+        record.extend([0xFF, 0xFF, 0xFF, 0x7F]); // 2 bytes in the map, 2 after
+        let err = check_fields(&record, CHANNEL).unwrap_err();
+        assert_eq!(err.claimed_bytes, 0x7FFF_FFFF);
     }
 
     #[test]
