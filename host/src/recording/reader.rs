@@ -16,7 +16,7 @@ use std::io::{self, BufReader, Read};
 use std::path::Path;
 
 use mcap::McapError;
-use mcap::records::{Record, op};
+use mcap::records::{ChunkHeader, Record, op};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::error::RecordingError;
@@ -112,22 +112,23 @@ pub fn read_recording_from(
         }
     }
     let options = LinearReaderOptions::default()
-        // A chunk is used only once all of it is there and its CRC checks.
-        .with_prevalidate_chunk_crcs(true)
+        // Whole chunks, read here (see `read_chunk`): a chunk is used only once all of it is
+        // there.
+        .with_emit_chunks(true)
         .with_record_length_limit(MAX_RECORD_BYTES);
     let mut reader = LinearReader::new_with_options(options);
     let mut input = magic.chain(source);
-    let corrupt = |error| RecordingError::Corrupt {
-        path: path.to_path_buf(),
-        source: error,
-    };
 
     let mut recording = Recording::default();
-    let mut reads = Vec::new();
-    let mut link = Vec::new();
-    let mut topics: HashMap<u16, String> = HashMap::new();
+    let mut records = Records {
+        path,
+        recording: &mut recording,
+        topics: HashMap::new(),
+        reads: Vec::new(),
+        link: Vec::new(),
+    };
     while let Some(event) = reader.next_event() {
-        let (opcode, data) = match event {
+        match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
                 let read = loop {
                     match input.read(reader.insert(need)) {
@@ -142,72 +143,20 @@ pub fn read_recording_from(
                     }
                 };
                 reader.notify_read(read);
-                continue;
             }
-            Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
+            Ok(LinearReadEvent::Record { opcode, data }) => records.take(opcode, data)?,
             Err(McapError::UnexpectedEof) => {
-                recording.truncated = true;
+                records.recording.truncated = true;
                 break;
             }
-            Err(error) => return Err(corrupt(error)),
-        };
-        // The replay needs only the header, the channels (the summary's copies included,
-        // which must agree) and the messages, and parses nothing else.
-        let layout = match opcode {
-            op::HEADER => Some(record_fields::HEADER),
-            op::CHANNEL => Some(record_fields::CHANNEL),
-            // Fixed fields, then the payload: nothing to reserve.
-            op::MESSAGE => None,
-            _ => continue,
-        };
-        if let Some(layout) = layout
-            && let Err(overrun) = record_fields::check_fields(data, layout)
-        {
-            return Err(RecordingError::FieldOverrun {
-                path: path.to_path_buf(),
-                opcode,
-                overrun,
-            });
-        }
-        match mcap::parse_record(opcode, data).map_err(corrupt)? {
-            Record::Channel(channel) => match topics.get(&channel.id) {
-                Some(topic) if *topic != channel.topic => {
-                    return Err(corrupt(McapError::ConflictingChannels(channel.topic)));
-                }
-                _ => {
-                    topics.insert(channel.id, channel.topic);
-                }
-            },
-            Record::Message { header, data } => {
-                let Some(topic) = topics.get(&header.channel_id) else {
-                    return Err(corrupt(McapError::UnknownChannel(
-                        header.sequence,
-                        header.channel_id,
-                    )));
-                };
-                match recording.message_counts.get_mut(topic) {
-                    Some(count) => *count += 1,
-                    None => {
-                        recording.message_counts.insert(topic.clone(), 1);
-                    }
-                }
-                let direction = match topic.as_str() {
-                    RAW_TOPIC => Some(LinkDirection::FromBoard),
-                    SENT_TOPIC => Some(LinkDirection::ToBoard),
-                    RECONNECT_TOPIC => Some(LinkDirection::Reconnect),
-                    _ => None,
-                };
-                if let Some(direction) = direction {
-                    let bytes = data.into_owned();
-                    if direction == LinkDirection::FromBoard {
-                        reads.push((header.log_time, bytes.clone()));
-                    }
-                    link.push((header.log_time, direction, bytes));
-                }
-            }
-            _ => {}
+            Err(error) => return Err(records.corrupt(error)),
         }
     }
+    let Records {
+        mut reads,
+        mut link,
+        ..
+    } = records;
     // Stable: records with equal times stay in file order.
     link.sort_by_key(|&(log_time_ns, _, _)| log_time_ns);
     recording.link = link
@@ -227,6 +176,152 @@ pub fn read_recording_from(
         })
         .collect();
     Ok(recording)
+}
+
+/// What the reader keeps of the records it has taken so far.
+struct Records<'a> {
+    path: &'a Path,
+    recording: &'a mut Recording,
+    /// Each channel's topic.
+    topics: HashMap<u16, String>,
+    /// The raw reads: log time, bytes.
+    reads: Vec<(u64, Vec<u8>)>,
+    /// Reads, writes and reopenings: log time, direction, bytes.
+    link: Vec<(u64, LinkDirection, Vec<u8>)>,
+}
+
+impl Records<'_> {
+    fn corrupt(&self, error: McapError) -> RecordingError {
+        RecordingError::Corrupt {
+            path: self.path.to_path_buf(),
+            source: error,
+        }
+    }
+
+    /// Takes one record of the file or of a chunk. The replay needs only the header, the
+    /// channels (the summary's copies included, which must agree) and the messages, and
+    /// parses nothing else.
+    fn take(&mut self, opcode: u8, data: &[u8]) -> Result<(), RecordingError> {
+        let layout = match opcode {
+            op::HEADER => Some(record_fields::HEADER),
+            op::CHANNEL => Some(record_fields::CHANNEL),
+            op::CHUNK => Some(record_fields::CHUNK),
+            // Fixed fields, then the payload: nothing to reserve.
+            op::MESSAGE => None,
+            _ => return Ok(()),
+        };
+        if let Some(layout) = layout
+            && let Err(overrun) = record_fields::check_fields(data, layout)
+        {
+            return Err(RecordingError::FieldOverrun {
+                path: self.path.to_path_buf(),
+                opcode,
+                overrun,
+            });
+        }
+        match mcap::parse_record(opcode, data).map_err(|e| self.corrupt(e))? {
+            Record::Chunk { header, data } => self.take_chunk(&header, &data)?,
+            Record::Channel(channel) => match self.topics.get(&channel.id) {
+                Some(topic) if *topic != channel.topic => {
+                    return Err(self.corrupt(McapError::ConflictingChannels(channel.topic)));
+                }
+                _ => {
+                    self.topics.insert(channel.id, channel.topic);
+                }
+            },
+            Record::Message { header, data } => {
+                let Some(topic) = self.topics.get(&header.channel_id) else {
+                    return Err(self.corrupt(McapError::UnknownChannel(
+                        header.sequence,
+                        header.channel_id,
+                    )));
+                };
+                let counts = &mut self.recording.message_counts;
+                match counts.get_mut(topic) {
+                    Some(count) => *count += 1,
+                    None => {
+                        counts.insert(topic.clone(), 1);
+                    }
+                }
+                let direction = match topic.as_str() {
+                    RAW_TOPIC => Some(LinkDirection::FromBoard),
+                    SENT_TOPIC => Some(LinkDirection::ToBoard),
+                    RECONNECT_TOPIC => Some(LinkDirection::Reconnect),
+                    _ => None,
+                };
+                if let Some(direction) = direction {
+                    let bytes = data.into_owned();
+                    if direction == LinkDirection::FromBoard {
+                        self.reads.push((header.log_time, bytes.clone()));
+                    }
+                    self.link.push((header.log_time, direction, bytes));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Decompresses a whole chunk, checks its CRC and takes the records it holds, each
+    /// checked to lie within the chunk (the MCAP library's own chunk reader subtracts a
+    /// record's claimed length from what is left unchecked).
+    fn take_chunk(
+        &mut self,
+        header: &ChunkHeader,
+        compressed: &[u8],
+    ) -> Result<(), RecordingError> {
+        let too_large = || McapError::ChunkTooLarge(header.uncompressed_size);
+        let size =
+            usize::try_from(header.uncompressed_size).map_err(|_| self.corrupt(too_large()))?;
+        if size > MAX_RECORD_BYTES {
+            return Err(self.corrupt(too_large()));
+        }
+        let decompressed;
+        let records = match header.compression.as_str() {
+            "" => compressed,
+            "lz4" => {
+                let mut out = Vec::with_capacity(size);
+                lz4::Decoder::new(compressed)
+                    .and_then(|decoder| decoder.take(size as u64 + 1).read_to_end(&mut out))
+                    .map_err(|e| self.corrupt(McapError::DecompressionError(e.to_string())))?;
+                decompressed = out;
+                &decompressed[..]
+            }
+            other => return Err(self.corrupt(McapError::UnsupportedCompression(other.into()))),
+        };
+        if records.len() != size {
+            return Err(self.corrupt(McapError::BadChunkLength {
+                header: header.uncompressed_size,
+                available: records.len() as u64,
+            }));
+        }
+        let saved = header.uncompressed_crc;
+        let calculated = crc32fast::hash(records);
+        if saved != 0 && saved != calculated {
+            return Err(self.corrupt(McapError::BadChunkCrc { saved, calculated }));
+        }
+        let mut rest = records;
+        while !rest.is_empty() {
+            let Some((&[opcode, l0, l1, l2, l3, l4, l5, l6, l7], after)) =
+                rest.split_first_chunk::<9>()
+            else {
+                return Err(self.corrupt(McapError::UnexpectedEoc));
+            };
+            let length = u64::from_le_bytes([l0, l1, l2, l3, l4, l5, l6, l7]);
+            let length = match usize::try_from(length) {
+                Ok(n) if n <= after.len() => n,
+                _ => return Err(self.corrupt(McapError::UnexpectedEoc)),
+            };
+            let (body, after) = after.split_at(length);
+            if opcode == op::CHUNK {
+                // A chunk inside a chunk is not MCAP.
+                return Err(self.corrupt(McapError::UnexpectedEoc));
+            }
+            self.take(opcode, body)?;
+            rest = after;
+        }
+        Ok(())
+    }
 }
 
 fn not_mcap(path: &Path) -> RecordingError {
@@ -548,8 +643,71 @@ mod tests {
         );
         assert!(err.to_string().contains("4294967295 bytes"), "{err}");
 
+        // Found by the fuzz target too: a chunk that runs past the end of the file, whose
+        // records claim more bytes than the chunk holds (the MCAP library's own chunk reader
+        // underflows on it). Whole chunks only: a file cut inside its first chunk.
+        let fuzzed = include_bytes!(
+            "../../fuzz/regressions/recording/crash-74181488ac57713475ac160ca2a3e61bb59c4b97"
+        );
+        let cut = read_recording_from(Cursor::new(&fuzzed[..]), &path.0).unwrap();
+        assert!(cut.truncated && cut.link.is_empty(), "{cut:?}");
+
         let missing = read_recording(Path::new("/nonexistent/run.mcap")).unwrap_err();
         assert!(matches!(missing, RecordingError::Open { .. }), "{missing}");
+    }
+
+    #[test]
+    fn uncompressed_chunks_read_as_compressed_ones() {
+        let reads = synthetic_reads(30);
+        let recordings: Vec<Recording> = [true, false]
+            .into_iter()
+            .map(|compress| {
+                let path = TempPath::new(&format!("compress-{compress}"));
+                let options = RecorderOptions {
+                    compress,
+                    ..options()
+                };
+                let mut recorder = Recorder::create(&path.0, options).unwrap();
+                record(&mut recorder, &reads, 4);
+                recorder.finish().unwrap();
+                read_recording(&path.0).unwrap()
+            })
+            .collect();
+        assert_eq!(recordings[0], recordings[1]);
+        assert_eq!(recordings[1].raw_reads.len(), reads.len());
+        assert!(!recordings[1].truncated);
+    }
+
+    #[test]
+    fn a_chunk_whose_records_overrun_it_is_refused() {
+        // An uncompressed chunk holding one record that claims 100 bytes of the 9 there are.
+        let mut records = vec![op::MESSAGE];
+        records.extend(100u64.to_le_bytes());
+        let mut chunk = Vec::new();
+        chunk.extend(0u64.to_le_bytes()); // message start time
+        chunk.extend(0u64.to_le_bytes()); // message end time
+        chunk.extend((records.len() as u64).to_le_bytes()); // uncompressed size
+        chunk.extend(0u32.to_le_bytes()); // no CRC
+        chunk.extend(0u32.to_le_bytes()); // compression ""
+        chunk.extend((records.len() as u64).to_le_bytes());
+        chunk.extend(&records);
+        let mut bytes = mcap::MAGIC.to_vec();
+        bytes.push(op::CHUNK);
+        bytes.extend((chunk.len() as u64).to_le_bytes());
+        bytes.extend(chunk);
+        let path = Path::new("overrun.mcap");
+        let err = read_recording_from(Cursor::new(bytes), path).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                RecordingError::Corrupt {
+                    source: McapError::UnexpectedEoc,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("overrun.mcap"), "{err}");
     }
 
     #[test]

@@ -13,6 +13,10 @@ use std::fmt;
 pub(super) enum Field {
     /// A little-endian `uint16`.
     U16,
+    /// A little-endian `uint32`.
+    U32,
+    /// A little-endian `uint64`.
+    U64,
     /// A `String`: a `uint32` byte length, then that many bytes.
     String,
     /// A `Map<String, String>`: a `uint32` byte length, then key and value strings.
@@ -29,6 +33,16 @@ pub(super) const CHANNEL: &[Field] = &[
     Field::String,
     Field::String,
     Field::StringMap,
+];
+
+/// The Chunk record up to its records: message start and end times, uncompressed size,
+/// uncompressed CRC, compression.
+pub(super) const CHUNK: &[Field] = &[
+    Field::U64,
+    Field::U64,
+    Field::U64,
+    Field::U32,
+    Field::String,
 ];
 
 /// A field that claims more bytes than are left of what holds it.
@@ -66,10 +80,17 @@ pub(super) fn check_fields(record: &[u8], layout: &[Field]) -> Result<(), FieldO
             available_bytes: available_bytes as u64,
         };
         match field {
-            Field::U16 => match rest.get(2..) {
-                Some(after) => rest = after,
-                None => return Ok(()),
-            },
+            Field::U16 | Field::U32 | Field::U64 => {
+                let size = match field {
+                    Field::U16 => 2,
+                    Field::U32 => 4,
+                    _ => 8,
+                };
+                match rest.get(size..) {
+                    Some(after) => rest = after,
+                    None => return Ok(()),
+                }
+            }
             Field::String => match take_prefixed(rest) {
                 Prefixed::Fits { after, .. } => rest = after,
                 Prefixed::Overruns { claimed, available } => {
