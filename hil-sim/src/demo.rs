@@ -114,25 +114,18 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         ));
     }
     fs::create_dir_all(&options.out)?;
-    let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
-    let outdoor = options.world == WorldKind::Outdoor;
-    let image_path = if outdoor {
-        Some(write_aerial(&scenario, &options.out)?)
-    } else {
-        None
-    };
-
-    let relay = PtyLink::open()?;
-    let mut config = daemon_config(
+    let DaemonSetup {
+        relay,
+        config,
+        image: image_path,
+    } = DaemonSetup::prepare(
         options.world,
-        &scenario,
-        relay.board_path(),
-        image_path.clone(),
+        options.seed,
+        options.duration_s,
         &options.out,
+        options.serve,
+        options.foxglove,
     )?;
-    config.web.listen = options.serve;
-    config.web.foxglove_listen = options.foxglove;
-    config.validate().map_err(io::Error::other)?;
 
     let opener = SerialPortOpener {
         path: config.link.port.clone(),
@@ -208,37 +201,67 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     })
 }
 
-/// The daemon's configuration for a run on `scenario`: the board at `port`, EKF SLAM with GPS
-/// and the aerial image `image` outdoors, the occupancy grid indoors, recording to
-/// `out/run.mcap`, the web view on its default address.
-///
-/// # Errors
-/// A configuration the daemon would refuse.
-pub(crate) fn daemon_config(
-    world: WorldKind,
-    scenario: &Scenario,
-    port: &Path,
-    image: Option<PathBuf>,
-    out: &Path,
-) -> io::Result<DaemonConfig> {
-    let mut config = DaemonConfig::default();
-    config.link.port = port.display().to_string();
-    config.slam.method = if world == WorldKind::Outdoor {
-        SlamMethod::Ekf
-    } else {
-        SlamMethod::Grid
-    };
-    config.slam.grid_max_range_m = 8.0;
-    config.record.path = Some(out.join("run.mcap"));
-    config.georef.image = image;
-    let datum = scenario.datum();
-    config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);
-    config.validate().map_err(io::Error::other)?;
-    Ok(config)
+/// What a run of the daemon on a generated world needs: the pty it reads the board on, its
+/// configuration and the aerial image written for it.
+pub(crate) struct DaemonSetup {
+    /// The pty between the simulated board and the daemon.
+    pub relay: PtyLink,
+    /// The daemon's configuration: the board on the relay, EKF SLAM with GPS and the aerial
+    /// image outdoors, the occupancy grid indoors, recording to `out/run.mcap`.
+    pub config: DaemonConfig,
+    /// The aerial image (outdoors).
+    pub image: Option<PathBuf>,
+}
+
+impl DaemonSetup {
+    /// Generates the world of `seed` for `duration_s`, writes its aerial image to `out`
+    /// (outdoors), opens the relay and configures the daemon to serve its web view on
+    /// `web` and its Foxglove stream on `foxglove`.
+    ///
+    /// # Errors
+    /// The image cannot be written, no pty is free, or the daemon would refuse the
+    /// configuration.
+    pub(crate) fn prepare(
+        world: WorldKind,
+        seed: u64,
+        duration_s: f64,
+        out: &Path,
+        web: SocketAddr,
+        foxglove: Option<SocketAddr>,
+    ) -> io::Result<Self> {
+        let scenario = Scenario::generate_for(world, seed, duration_s + 1.0);
+        let outdoor = world == WorldKind::Outdoor;
+        let image = if outdoor {
+            Some(write_aerial(&scenario, out)?)
+        } else {
+            None
+        };
+        let relay = PtyLink::open()?;
+        let mut config = DaemonConfig::default();
+        config.link.port = relay.board_path().display().to_string();
+        config.slam.method = if outdoor {
+            SlamMethod::Ekf
+        } else {
+            SlamMethod::Grid
+        };
+        config.slam.grid_max_range_m = 8.0;
+        config.record.path = Some(out.join("run.mcap"));
+        config.georef.image.clone_from(&image);
+        let datum = scenario.datum();
+        config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);
+        config.web.listen = web;
+        config.web.foxglove_listen = foxglove;
+        config.validate().map_err(io::Error::other)?;
+        Ok(DaemonSetup {
+            relay,
+            config,
+            image,
+        })
+    }
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.
-pub(crate) fn write_aerial(scenario: &Scenario, out: &Path) -> io::Result<PathBuf> {
+fn write_aerial(scenario: &Scenario, out: &Path) -> io::Result<PathBuf> {
     let aerial = render_aerial(scenario, AERIAL_PIXEL_M);
     let path = out.join("aerial.tif");
     write_geotiff_geographic_rgb8(

@@ -36,11 +36,10 @@ use rand_chacha::ChaCha8Rng;
 use robot_host::LinkCounters;
 use serde::Serialize;
 
-use crate::demo::{daemon_config, write_aerial};
+use crate::demo::DaemonSetup;
 use crate::faults::{FaultSpec, GpsOutage};
-use crate::pty::PtyLink;
 use crate::run::{RunOptions, RunSummary, run_relayed};
-use crate::world::{Scenario, WorldKind};
+use crate::world::WorldKind;
 
 /// The peak memory may exceed the memory after the first simulated minute by this factor.
 pub const MEMORY_GROWTH_LIMIT: f64 = 1.10;
@@ -208,23 +207,15 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         .faults
         .clone()
         .unwrap_or_else(|| every_fault_kind(options.duration_s));
-    let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
-    let image = if options.world == WorldKind::Outdoor {
-        Some(write_aerial(&scenario, &options.out)?)
-    } else {
-        None
-    };
-    let relay = PtyLink::open()?;
-    let mut config = daemon_config(
+    let loopback_any_port = SocketAddr::from(([127, 0, 0, 1], 0));
+    let DaemonSetup { relay, config, .. } = DaemonSetup::prepare(
         options.world,
-        &scenario,
-        relay.board_path(),
-        image,
+        options.seed,
+        options.duration_s,
         &options.out,
+        loopback_any_port,
+        Some(loopback_any_port),
     )?;
-    config.web.listen = SocketAddr::from(([127, 0, 0, 1], 0));
-    config.web.foxglove_listen = Some(SocketAddr::from(([127, 0, 0, 1], 0)));
-    config.validate().map_err(io::Error::other)?;
     let flush_interval_s = config.record.flush_interval_s;
     let recording_path = options.out.join("run.mcap");
     let _ = fs::remove_file(&recording_path);

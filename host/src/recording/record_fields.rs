@@ -11,12 +11,8 @@ use std::fmt;
 /// One field of a record's layout (the MCAP specification's field types).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Field {
-    /// A little-endian `uint16`.
-    U16,
-    /// A little-endian `uint32`.
-    U32,
-    /// A little-endian `uint64`.
-    U64,
+    /// A fixed-size field (`uint16`, `uint32`, `uint64`, `Timestamp`) of this many bytes.
+    Fixed(usize),
     /// A `String`: a `uint32` byte length, then that many bytes.
     String,
     /// A `Map<String, String>`: a `uint32` byte length, then key and value strings.
@@ -28,8 +24,8 @@ pub(super) const HEADER: &[Field] = &[Field::String, Field::String];
 
 /// The Channel record: id, schema id, topic, message encoding, metadata.
 pub(super) const CHANNEL: &[Field] = &[
-    Field::U16,
-    Field::U16,
+    Field::Fixed(2),
+    Field::Fixed(2),
     Field::String,
     Field::String,
     Field::StringMap,
@@ -38,10 +34,10 @@ pub(super) const CHANNEL: &[Field] = &[
 /// The Chunk record up to its records: message start and end times, uncompressed size,
 /// uncompressed CRC, compression.
 pub(super) const CHUNK: &[Field] = &[
-    Field::U64,
-    Field::U64,
-    Field::U64,
-    Field::U32,
+    Field::Fixed(8),
+    Field::Fixed(8),
+    Field::Fixed(8),
+    Field::Fixed(4),
     Field::String,
 ];
 
@@ -80,17 +76,10 @@ pub(super) fn check_fields(record: &[u8], layout: &[Field]) -> Result<(), FieldO
             available_bytes: available_bytes as u64,
         };
         match field {
-            Field::U16 | Field::U32 | Field::U64 => {
-                let size = match field {
-                    Field::U16 => 2,
-                    Field::U32 => 4,
-                    _ => 8,
-                };
-                match rest.get(size..) {
-                    Some(after) => rest = after,
-                    None => return Ok(()),
-                }
-            }
+            Field::Fixed(bytes) => match rest.get(*bytes..) {
+                Some(after) => rest = after,
+                None => return Ok(()),
+            },
             Field::String => match take_prefixed(rest) {
                 Prefixed::Fits { after, .. } => rest = after,
                 Prefixed::Overruns { claimed, available } => {
