@@ -182,7 +182,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     let daemon_scans = outcome
         .ekf
         .as_ref()
-        .map(|e| e.trajectory().len())
+        .map(|e| e.scans_placed())
         .or(outcome.grid.as_ref().map(|g| g.trajectory().len()))
         .unwrap_or(0);
     Ok(DemoReport {

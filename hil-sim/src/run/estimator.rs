@@ -6,6 +6,8 @@
 //! ([`host::ekf_slam::EkfPipeline`]) with GPS, whose map becomes the local frame at the
 //! world's datum once it is aligned to the fixes.
 
+use std::io;
+
 use host::ekf_slam::EkfPipeline;
 use host::geometry::Pose2;
 use host::link::SensorEvent;
@@ -57,16 +59,19 @@ impl Estimator {
 
     /// The pose `[x_m, y_m, theta_rad]` of every scan the pipeline placed, as it holds them
     /// now, in the order the scans came (the EKF skips a scan whose time stamp goes back).
-    pub fn trajectory(&self) -> Vec<[f64; 3]> {
+    ///
+    /// # Errors
+    /// The EKF pipeline's trajectory cannot be read back from its temporary file.
+    pub fn trajectory(&self) -> io::Result<Vec<[f64; 3]>> {
         let entries = |p: &Pose2| [p.x_m, p.y_m, p.theta_rad];
-        match self {
+        Ok(match self {
             Estimator::Grid(pipeline) => pipeline.poses_in_map().iter().map(entries).collect(),
             Estimator::Ekf(pipeline) => pipeline
-                .trajectory()
+                .trajectory()?
                 .iter()
                 .map(|p| entries(&p.pose_in_map))
                 .collect(),
-        }
+        })
     }
 
     /// How many scans the pipeline has placed so far.

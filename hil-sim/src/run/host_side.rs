@@ -5,6 +5,7 @@
 //! accepted).
 
 use std::collections::VecDeque;
+use std::io;
 
 use host::link::{LinkSession, SensorEvent};
 use protocol::{GpsFixMsg, MeasuringMode, Message, ScanMsg, StatusMsg};
@@ -159,10 +160,13 @@ impl HostSide {
 
     /// Ends the run: the pipeline finishes, and each scan record takes its pose as the
     /// pipeline holds it at the end.
-    pub fn finish(&mut self) {
+    ///
+    /// # Errors
+    /// The pipeline's trajectory cannot be read back.
+    pub fn finish(&mut self) -> io::Result<()> {
         self.estimator.finish();
         self.geo_referenced = self.estimator.is_geo_referenced();
-        let trajectory = self.estimator.trajectory();
+        let trajectory = self.estimator.trajectory()?;
         for record in &mut self.records {
             record.estimate = record
                 .placed
@@ -171,6 +175,7 @@ impl HostSide {
                 .copied()
                 .unwrap_or_default();
         }
+        Ok(())
     }
 
     /// A scan message and the session's event for it.

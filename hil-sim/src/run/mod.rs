@@ -515,7 +515,7 @@ fn execute(
             true,
         );
         engine.run(duration_us)?;
-        engine.host.finish();
+        engine.host.finish()?;
         let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
         return Ok((summary, Received::take(&mut engine.host)));
     }
@@ -555,7 +555,7 @@ fn execute(
     let outcome = engine.run(duration_us);
     board.stop();
     outcome?;
-    engine.host.finish();
+    engine.host.finish()?;
     let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
     Ok((summary, Received::take(&mut engine.host)))
 }

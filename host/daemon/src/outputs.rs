@@ -55,9 +55,8 @@ pub fn write_outputs(
 ) -> Result<WrittenOutputs, OutputError> {
     fs::create_dir_all(dir).map_err(|e| output_error(dir)(e.to_string()))?;
     let mut written = WrittenOutputs::default();
-    let trajectory = trajectory_rows(outcome);
-
     let path = dir.join("trajectory.tsv");
+    let trajectory = trajectory_rows(outcome).map_err(|e| output_error(&path)(e.to_string()))?;
     write_trajectory(&path, &trajectory).map_err(|e| output_error(&path)(e.to_string()))?;
     written.files.push(path);
 
@@ -155,22 +154,22 @@ fn geo_referencing(outcome: &RunOutcome) -> Option<(LocalFrame, Pose2, Vec<[f64;
 
 /// `(host_time_s, pose_in_map, lost)` per scan from the pipeline that owns the pose: `lost`
 /// when the grid method's local tracking could not place the scan (never for the EKF).
-fn trajectory_rows(outcome: &RunOutcome) -> Vec<(f64, Pose2, bool)> {
+fn trajectory_rows(outcome: &RunOutcome) -> io::Result<Vec<(f64, Pose2, bool)>> {
     if let Some(ekf) = &outcome.ekf {
-        return ekf
-            .trajectory()
+        return Ok(ekf
+            .trajectory()?
             .iter()
             .map(|p| (p.time_s, p.pose_in_map, false))
-            .collect();
+            .collect());
     }
-    outcome.grid.as_ref().map_or_else(Vec::new, |grid| {
+    Ok(outcome.grid.as_ref().map_or_else(Vec::new, |grid| {
         let lost = grid.lost();
         grid.trajectory()
             .into_iter()
             .enumerate()
             .map(|(i, (t, p))| (t, p, lost.get(i).copied().unwrap_or(false)))
             .collect()
-    })
+    }))
 }
 
 fn write_trajectory(path: &Path, rows: &[(f64, Pose2, bool)]) -> io::Result<()> {

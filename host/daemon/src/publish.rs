@@ -18,15 +18,12 @@ const PIXEL_FIT_HALF_SIDE_M: f64 = 200.0;
 /// Writes the EKF pipeline's estimate into `state`.
 pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoImage>) {
     let (pose, covariance) = ekf.pose();
-    let time_s = ekf
-        .scans_placed()
-        .checked_sub(1)
-        .and_then(|last| ekf.stamped_pose(last))
-        .map_or(0.0, |p| p.time_s);
-    let trajectory_m = thinned_by_index(ekf.scans_placed(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
-        ekf.stamped_pose(i)
-            .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
-    });
+    let time_s = ekf.last_pose().map_or(0.0, |p| p.time_s);
+    let trajectory_m = ekf
+        .thinned_trajectory()
+        .iter()
+        .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
+        .collect();
     // Once aligned, the EKF's map frame is the `enu` frame itself.
     let placement = ekf
         .frame()

@@ -8,9 +8,11 @@
 
 use nalgebra::{Matrix2, Matrix3};
 
+use std::io;
+
 use super::{
-    ConstantVelocityModel, LandmarkObservation, LandmarkSlam, LandmarkSlamOptions,
-    RangeBearingModel, SubmapSlamOptions,
+    ConstantVelocityModel, GpsOutcome, LandmarkObservation, LandmarkSlam, LandmarkSlamOptions,
+    PoseHistory, PoseHistoryOptions, RangeBearingModel, SubmapSlamOptions,
 };
 use crate::geometry::Pose2;
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
@@ -84,8 +86,8 @@ pub struct EkfPipeline {
     frame: Option<LocalFrame>,
     gps_options: GpsMeasurementOptions,
     max_range_m: f64,
-    /// Host time of each scan the method used, in order.
-    host_times_s: Vec<f64>,
+    /// The pose at each scan the method used, at the scan's host time, bounded in memory.
+    trajectory: PoseHistory,
     stats: EkfPipelineStats,
 }
 
@@ -107,6 +109,7 @@ impl EkfPipeline {
             // The smoothing pass holds the model's own entries at their final values: right
             // for odometry calibration, wrong for the constant-velocity model's velocity.
             smooth: false,
+            keep_trajectory: false,
             ..LandmarkSlamOptions::default()
         };
         EkfPipeline {
@@ -117,7 +120,7 @@ impl EkfPipeline {
                 .and_then(|[lat, lon]| LocalFrame::new(lat, lon, 0.0).ok()),
             gps_options: GpsMeasurementOptions::default(),
             max_range_m: options.max_range_m,
-            host_times_s: Vec::new(),
+            trajectory: PoseHistory::new(PoseHistoryOptions::default()),
             stats: EkfPipelineStats::default(),
         }
     }
@@ -152,7 +155,10 @@ impl EkfPipeline {
                     self.stats.scans_out_of_order += 1;
                     return;
                 }
-                self.host_times_s.push(*host_time_s);
+                self.trajectory.push(StampedPose {
+                    time_s: *host_time_s,
+                    pose_in_map: self.method.reported_pose(),
+                });
                 self.stats.scans += 1;
                 self.stats.tree_observations += observations.len() as u64;
                 self.stats.local_maps = self.method.slam().stats().joins as u64;
@@ -173,6 +179,9 @@ impl EkfPipeline {
                     measurement.position_in_enu_m,
                     &measurement.covariance_in_enu_m2,
                 );
+                if let Some(GpsOutcome::Aligned(enu_from_map)) = used {
+                    self.trajectory.transform(enu_from_map);
+                }
                 if used.is_some() {
                     self.stats.fixes += 1;
                 }
@@ -205,30 +214,31 @@ impl EkfPipeline {
         self.method.is_aligned() && self.frame.is_some()
     }
 
-    /// The pose of the `index`-th scan placed, as [`EkfPipeline::trajectory`] holds it.
-    pub fn stamped_pose(&self, index: usize) -> Option<StampedPose> {
-        Some(StampedPose {
-            time_s: *self.host_times_s.get(index)?,
-            pose_in_map: self.method.trajectory().get(index)?.pose_in_map,
-        })
+    /// The pose at the newest scan placed.
+    pub fn last_pose(&self) -> Option<StampedPose> {
+        self.trajectory.last()
+    }
+
+    /// At most a few thousand poses of the trajectory, evenly spaced, the newest among them:
+    /// what a live view draws ([`PoseHistory::thinned`]).
+    pub fn thinned_trajectory(&self) -> Vec<StampedPose> {
+        self.trajectory.thinned()
     }
 
     /// Scans the pipeline has placed (one trajectory pose each).
     pub fn scans_placed(&self) -> usize {
-        self.host_times_s.len()
+        self.trajectory.len()
     }
 
     /// Every pose so far, one per scan used, at the scan's host time, as estimated at the
-    /// time (re-expressed in the `enu` frame once aligned to GPS).
-    pub fn trajectory(&self) -> Vec<StampedPose> {
-        self.host_times_s
-            .iter()
-            .zip(self.method.trajectory())
-            .map(|(&time_s, timed)| StampedPose {
-                time_s,
-                pose_in_map: timed.pose_in_map,
-            })
-            .collect()
+    /// time (re-expressed in the `enu` frame once aligned to GPS). Older poses are read back
+    /// from the history's temporary file.
+    ///
+    /// # Errors
+    /// The temporary file cannot be read back, or failed when the map was aligned to GPS
+    /// (then its poses were not re-expressed).
+    pub fn trajectory(&self) -> io::Result<Vec<StampedPose>> {
+        self.trajectory.to_vec()
     }
 
     /// The mapped landmarks (global map and current local map) in the map frame.

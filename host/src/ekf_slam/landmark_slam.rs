@@ -42,6 +42,10 @@ pub struct LandmarkSlamOptions {
     pub smooth: bool,
     /// The smoothing pass.
     pub smoother: MapSmootherOptions,
+    /// Keep the pose of every observation batch ([`LandmarkSlam::online_trajectory`]). Off
+    /// where the caller keeps the poses itself, bounded, as a run without an end needs
+    /// ([`super::EkfPipeline`] with [`super::PoseHistory`]); smoothing keeps it regardless.
+    pub keep_trajectory: bool,
 }
 
 impl Default for LandmarkSlamOptions {
@@ -54,6 +58,7 @@ impl Default for LandmarkSlamOptions {
             reported_in_robot: None,
             smooth: true,
             smoother: MapSmootherOptions::default(),
+            keep_trajectory: true,
         }
     }
 }
@@ -144,10 +149,12 @@ where
             self.kept
                 .push((t_s, Kept::Observations(observations.to_vec())));
         }
-        self.online.push(TimedPose {
-            t_s,
-            pose_in_map: self.reported(self.slam.pose_in_map().0),
-        });
+        if self.options.keep_trajectory || self.options.smooth {
+            self.online.push(TimedPose {
+                t_s,
+                pose_in_map: self.reported_pose(),
+            });
+        }
         true
     }
 
@@ -214,6 +221,12 @@ where
     /// The robot's pose in the map frame and its covariance.
     pub fn pose(&self) -> (Pose2, Matrix3<f64>) {
         self.slam.pose_in_map()
+    }
+
+    /// The pose the trajectory reports now (the robot's, or that of
+    /// [`LandmarkSlamOptions::reported_in_robot`]) in the map frame.
+    pub fn reported_pose(&self) -> Pose2 {
+        self.reported(self.slam.pose_in_map().0)
     }
 
     /// Whether the map frame is the local frame at the GPS datum.

@@ -37,6 +37,7 @@ pub mod local_map_anchors;
 pub mod map_smoother;
 pub mod motion_model;
 pub mod options;
+pub mod pose_history;
 pub mod range_bearing;
 pub mod submap_slam;
 
@@ -57,5 +58,6 @@ pub use local_map_anchors::LocalMapAnchors;
 pub use map_smoother::{MapSmoother, MapSmootherOptions, MapSmootherStats};
 pub use motion_model::{MotionModel, MotionPrediction};
 pub use options::{AssociationOptions, SubmapSlamOptions};
+pub use pose_history::{PoseHistory, PoseHistoryOptions};
 pub use range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
 pub use submap_slam::{MappedLandmark, SubmapSlam, SubmapSlamStats};

@@ -298,7 +298,7 @@ pub fn replay_file(args: &ReplayArgs) -> Result<(), String> {
         serde_json::json!({
             "truncated": truncated,
             "counters": outcome.state.counters,
-            "scans": outcome.ekf.as_ref().map(|e| e.trajectory().len())
+            "scans": outcome.ekf.as_ref().map(|e| e.scans_placed())
                 .or(outcome.grid.as_ref().map(|g| g.trajectory().len())),
             "final_pose": {"x_m": pose.x_m, "y_m": pose.y_m, "theta_rad": pose.theta_rad},
         })
