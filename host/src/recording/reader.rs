@@ -28,6 +28,11 @@ use super::topics::{RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
 /// writes, and a bound on what a damaged length field can make the reader allocate.
 const MAX_RECORD_BYTES: usize = 256 * 1024 * 1024;
 
+/// The most an LZ4 frame can expand: a match's length grows by at most 255 for each byte
+/// that encodes it. A chunk that claims more than this many times its compressed size is
+/// refused before any memory is reserved for it.
+const LZ4_MAX_EXPANSION: usize = 255;
+
 /// One read from the serial port.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RawRead {
@@ -280,6 +285,12 @@ impl Records<'_> {
         let records = match header.compression.as_str() {
             "" => compressed,
             "lz4" => {
+                if size > compressed.len().saturating_mul(LZ4_MAX_EXPANSION) {
+                    return Err(self.corrupt(McapError::BadChunkLength {
+                        header: header.uncompressed_size,
+                        available: compressed.len() as u64,
+                    }));
+                }
                 let mut out = Vec::with_capacity(size);
                 lz4::Decoder::new(compressed)
                     .and_then(|decoder| decoder.take(size as u64 + 1).read_to_end(&mut out))
@@ -708,6 +719,38 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("overrun.mcap"), "{err}");
+    }
+
+    #[test]
+    fn an_lz4_chunk_claiming_more_than_lz4_can_expand_is_refused() {
+        // Ten compressed bytes that claim to hold 100 MB: no LZ4 frame expands that far.
+        let mut chunk = Vec::new();
+        chunk.extend(0u64.to_le_bytes()); // message start time
+        chunk.extend(0u64.to_le_bytes()); // message end time
+        chunk.extend(100_000_000u64.to_le_bytes()); // uncompressed size
+        chunk.extend(0u32.to_le_bytes()); // no CRC
+        chunk.extend(3u32.to_le_bytes());
+        chunk.extend(b"lz4");
+        chunk.extend(10u64.to_le_bytes());
+        chunk.extend([0u8; 10]);
+        let mut bytes = mcap::MAGIC.to_vec();
+        bytes.push(op::CHUNK);
+        bytes.extend((chunk.len() as u64).to_le_bytes());
+        bytes.extend(chunk);
+        let err = read_recording_from(Cursor::new(bytes), Path::new("claim.mcap")).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                RecordingError::Corrupt {
+                    source: McapError::BadChunkLength {
+                        header: 100_000_000,
+                        available: 10,
+                    },
+                    ..
+                }
+            ),
+            "{err}"
+        );
     }
 
     #[test]
