@@ -147,6 +147,11 @@ fn same_arguments_give_identical_outputs() {
         assert!(!x.is_empty(), "{file} is empty");
         assert!(x == y, "{file} differs between two runs of the same seed");
     }
+    // The pipeline's time per scan is written beside them, for every scan the host received.
+    let timing: serde_json::Value =
+        serde_json::from_slice(&fs::read(a.join("performance.json")).unwrap()).unwrap();
+    assert!(timing["scans"].as_u64().unwrap() > 0, "{timing}");
+    assert!(timing["p99_ms"].as_f64().unwrap() >= timing["p50_ms"].as_f64().unwrap());
     let (_, c) = run_world(WorldKind::Outdoor, 12, 8.0, faults, "same-c");
     assert_ne!(
         fs::read(a.join("trajectory.tsv")).unwrap(),

@@ -13,6 +13,18 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
         summary.wall_s,
         out.display()
     );
+    let timing = &summary.pipeline;
+    eprintln!(
+        "hil-sim: the pipeline took {:.2} ms per scan on average; p50 {:.2}, p99 {:.2}, max {:.2} ms \
+         over {} scans; first 1000 {:.2} ms, last 1000 {:.2} ms (performance.json)",
+        timing.mean_ms,
+        timing.p50_ms,
+        timing.p99_ms,
+        timing.max_ms,
+        timing.scans,
+        timing.first_1000_mean_ms,
+        timing.last_1000_mean_ms,
+    );
     if summary.accounting_balanced {
         Ok(())
     } else {

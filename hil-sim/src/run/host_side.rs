@@ -71,6 +71,8 @@ pub struct HostSide {
     pub geo_referenced: bool,
     /// Bytes thrown away while the link was unplugged.
     pub bytes_while_unplugged: u64,
+    /// Wall time the pipeline took over each scan, in order, microseconds.
+    pub scan_step_us: Vec<u32>,
 }
 
 impl core::fmt::Debug for HostSide {
@@ -100,6 +102,7 @@ impl HostSide {
             status: None,
             geo_referenced: false,
             bytes_while_unplugged: 0,
+            scan_step_us: Vec::new(),
         }
     }
 
@@ -182,7 +185,11 @@ impl HostSide {
     fn on_scan(&mut self, scan: &ScanMsg, event: &SensorEvent) {
         let t_s = event.host_time_s();
         // Every scan the link delivers goes to the pipeline, as in the daemon.
+        let started = std::time::Instant::now();
         self.estimator.on_event(event);
+        let step_us = started.elapsed().as_micros();
+        self.scan_step_us
+            .push(u32::try_from(step_us).unwrap_or(u32::MAX));
         self.scans.push(DecodedScan {
             scan_counter: scan.scan_counter,
             values: scan.values.to_vec(),

@@ -16,6 +16,8 @@
 //! * `fixes.jsonl`: every GPS fix message the host decoded, one JSON object a line, without
 //!   the board's time stamp (`stamp_us` is 0);
 //! * `summary.json`: the accounting ([`RunSummary`]);
+//! * `performance.json`: how long the host's pipeline took per scan on this machine
+//!   ([`pipeline_timing::PipelineTiming`]; the one output that differs between runs);
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host
@@ -27,6 +29,7 @@
 pub mod engine;
 pub mod estimator;
 pub mod host_side;
+pub mod pipeline_timing;
 pub mod summary;
 pub mod tap;
 
@@ -625,5 +628,7 @@ fn write_outputs(out: &Path, received: &Received, summary: &RunSummary) -> io::R
     }
     fixes.flush()?;
     let json = serde_json::to_string_pretty(summary).map_err(io::Error::other)?;
-    fs::write(out.join("summary.json"), json + "\n")
+    fs::write(out.join("summary.json"), json + "\n")?;
+    let json = serde_json::to_string_pretty(&summary.pipeline).map_err(io::Error::other)?;
+    fs::write(out.join("performance.json"), json + "\n")
 }

@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::RunOptions;
 use super::engine::{Engine, EventsInjected};
+use super::pipeline_timing::PipelineTiming;
 use crate::emulators::StreamStart;
 use crate::faults::InjectedFaults;
 use crate::world::robot_state::wrap_angle_rad;
@@ -48,6 +49,9 @@ pub struct RunSummary {
     /// Wall-clock seconds the run took; not written, as everything written is deterministic.
     #[serde(skip)]
     pub wall_s: f64,
+    /// How long the pipeline took per scan; written to `performance.json` instead.
+    #[serde(skip)]
+    pub pipeline: PipelineTiming,
 }
 
 /// What the faults did.
@@ -183,6 +187,7 @@ impl RunSummary {
             estimate: estimate_error(&host.records, host.geo_referenced),
             laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
+            pipeline: PipelineTiming::from_step_times(&host.scan_step_us),
         }
     }
 }

@@ -1,0 +1,90 @@
+//! `performance.json` of a run: how long the host's pipeline took over each scan, on this
+//! machine. Kept apart from `summary.json`, which is byte-identical between runs of the same
+//! seed; these figures are not.
+
+use serde::Serialize;
+
+/// How long the pipeline took per scan (the wall time of handing it one scan event, its
+/// tracking, submaps, loop closure and optimisation included).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct PipelineTiming {
+    /// Scans timed.
+    pub scans: usize,
+    /// Mean per scan, milliseconds.
+    pub mean_ms: f64,
+    /// Median per scan, milliseconds.
+    pub p50_ms: f64,
+    /// 90th percentile, milliseconds.
+    pub p90_ms: f64,
+    /// 99th percentile, milliseconds.
+    pub p99_ms: f64,
+    /// The slowest scan, milliseconds.
+    pub max_ms: f64,
+    /// Mean over the first 1 000 scans, and over the last 1 000 (the same scans when there are
+    /// fewer than 2 000), milliseconds: whether the cost of a scan grows with the run.
+    pub first_1000_mean_ms: f64,
+    /// See [`Self::first_1000_mean_ms`].
+    pub last_1000_mean_ms: f64,
+}
+
+impl PipelineTiming {
+    /// The figures of `step_us`, the time of each scan in order, microseconds.
+    pub fn from_step_times(step_us: &[u32]) -> PipelineTiming {
+        if step_us.is_empty() {
+            return PipelineTiming::default();
+        }
+        let ms = |us: f64| us / 1000.0;
+        let mean =
+            |part: &[u32]| ms(part.iter().map(|&t| f64::from(t)).sum::<f64>() / part.len() as f64);
+        let mut sorted = step_us.to_vec();
+        sorted.sort_unstable();
+        // Nearest rank: the smallest time at or above the fraction `q` of the scans.
+        let quantile = |q: f64| {
+            let rank = (q * sorted.len() as f64).ceil() as usize;
+            ms(f64::from(sorted[rank.clamp(1, sorted.len()) - 1]))
+        };
+        let window = step_us.len().min(1000);
+        PipelineTiming {
+            scans: step_us.len(),
+            mean_ms: mean(step_us),
+            p50_ms: quantile(0.5),
+            p90_ms: quantile(0.9),
+            p99_ms: quantile(0.99),
+            max_ms: quantile(1.0),
+            first_1000_mean_ms: mean(&step_us[..window]),
+            last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_by_nearest_rank() {
+        let steps: Vec<u32> = (1..=100).map(|k| k * 1000).collect();
+        let timing = PipelineTiming::from_step_times(&steps);
+        assert_eq!(timing.scans, 100);
+        assert_eq!(timing.p50_ms, 50.0);
+        assert_eq!(timing.p90_ms, 90.0);
+        assert_eq!(timing.p99_ms, 99.0);
+        assert_eq!(timing.max_ms, 100.0);
+        assert_eq!(timing.mean_ms, 50.5);
+        assert_eq!(timing.first_1000_mean_ms, timing.last_1000_mean_ms);
+        assert_eq!(
+            PipelineTiming::from_step_times(&[]),
+            PipelineTiming::default()
+        );
+    }
+
+    #[test]
+    fn first_and_last_thousand_apart() {
+        let steps: Vec<u32> = (0..3000)
+            .map(|k| if k < 1000 { 1000 } else { 3000 })
+            .collect();
+        let timing = PipelineTiming::from_step_times(&steps);
+        assert_eq!(timing.first_1000_mean_ms, 1.0);
+        assert_eq!(timing.last_1000_mean_ms, 3.0);
+    }
+}
