@@ -1,8 +1,9 @@
 //! Every pose of a run that has no set end, in memory bounded however long it runs.
 //!
 //! The daemon places a pose per scan, tens a second, for hours. The history keeps the newest
-//! poses in memory and moves older ones, in blocks, to an unnamed temporary file (removed by
-//! the operating system when the history is dropped), so its memory stays flat. What the
+//! poses in memory and moves older ones, in blocks, to an unnamed temporary file in the
+//! temporary folder (`TMPDIR`, else `/tmp`; removed by the operating system when the history
+//! is dropped), so its memory stays flat. What the
 //! live view draws comes from a thinned copy of at most
 //! [`PoseHistoryOptions::max_shown`] poses, evenly spaced in index, kept up to date as poses
 //! arrive; the whole history is read back only at the end, for the exported trajectory.
