@@ -162,6 +162,7 @@ impl SlamConfig {
             max_range_m: self.ekf_max_range_m,
             landmarks_per_local_map: self.ekf_landmarks_per_local_map,
             datum_lat_lon_deg,
+            ..EkfPipelineOptions::default()
         }
     }
 }

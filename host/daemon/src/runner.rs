@@ -188,11 +188,21 @@ impl Daemon {
         let ekf = if config.slam.method.runs_ekf() {
             let (tx, rx) = mpsc::channel();
             event_txs.push(tx);
-            let pipeline = EkfPipeline::new(
-                &config
-                    .slam
-                    .ekf_pipeline_options(config.georef.datum_lat_lon_deg),
-            );
+            let mut options = config
+                .slam
+                .ekf_pipeline_options(config.georef.datum_lat_lon_deg);
+            // The trajectory's older poses go beside the recording, on its disk, rather than
+            // to a temporary folder that may be in memory.
+            options.trajectory.folder =
+                config
+                    .record
+                    .path
+                    .as_deref()
+                    .map(|path| match path.parent() {
+                        Some(folder) if !folder.as_os_str().is_empty() => folder.to_path_buf(),
+                        _ => std::path::PathBuf::from("."),
+                    });
+            let pipeline = EkfPipeline::new(&options);
             let state = state.clone();
             let image = image.clone();
             Some(spawn("ekf", move || {

@@ -45,6 +45,8 @@ pub struct EkfPipelineOptions {
     pub landmarks_per_local_map: usize,
     /// `[lat_deg, lon_deg]` of the local metric frame's origin; the first fix when `None`.
     pub datum_lat_lon_deg: Option<[f64; 2]>,
+    /// How the trajectory is kept: the newest poses in memory, older ones in a file.
+    pub trajectory: PoseHistoryOptions,
 }
 
 impl Default for EkfPipelineOptions {
@@ -55,6 +57,7 @@ impl Default for EkfPipelineOptions {
             max_range_m: 40.0,
             landmarks_per_local_map: 30,
             datum_lat_lon_deg: None,
+            trajectory: PoseHistoryOptions::default(),
         }
     }
 }
@@ -120,7 +123,7 @@ impl EkfPipeline {
                 .and_then(|[lat, lon]| LocalFrame::new(lat, lon, 0.0).ok()),
             gps_options: GpsMeasurementOptions::default(),
             max_range_m: options.max_range_m,
-            trajectory: PoseHistory::new(PoseHistoryOptions::default()),
+            trajectory: PoseHistory::new(options.trajectory.clone()),
             stats: EkfPipelineStats::default(),
         }
     }

@@ -1,9 +1,10 @@
 //! Every pose of a run that has no set end, in memory bounded however long it runs.
 //!
 //! The daemon places a pose per scan, tens a second, for hours. The history keeps the newest
-//! poses in memory and moves older ones, in blocks, to an unnamed temporary file in the
-//! temporary folder (`TMPDIR`, else `/tmp`; removed by the operating system when the history
-//! is dropped), so its memory stays flat. What the
+//! poses in memory and moves older ones, in blocks, to an unnamed temporary file (removed by
+//! the operating system when the history is dropped), so its memory stays flat. The file goes
+//! to [`PoseHistoryOptions::folder`], else to the temporary folder (`TMPDIR`, else `/tmp`,
+//! which may be a RAM disk). What the
 //! live view draws comes from a thinned copy of at most
 //! [`PoseHistoryOptions::max_shown`] poses, evenly spaced in index, kept up to date as poses
 //! arrive; the whole history is read back only at the end, for the exported trajectory.
@@ -13,6 +14,7 @@
 
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
+use std::path::PathBuf;
 
 use super::StampedPose;
 use super::frames::compose_pose;
@@ -21,13 +23,15 @@ use crate::geometry::Pose2;
 /// Bytes a pose takes in the file: time, x, y and heading as little-endian `f64`.
 const ROW_BYTES: usize = 32;
 
-/// How much the history keeps in memory.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// How much the history keeps in memory, and where the rest goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PoseHistoryOptions {
     /// Newest poses kept in memory; a full block moves to the file.
     pub block_rows: usize,
     /// Most poses in the thinned copy the live view draws.
     pub max_shown: usize,
+    /// The folder of the file; the temporary folder when `None`.
+    pub folder: Option<PathBuf>,
 }
 
 impl Default for PoseHistoryOptions {
@@ -35,6 +39,7 @@ impl Default for PoseHistoryOptions {
         PoseHistoryOptions {
             block_rows: 4_096,
             max_shown: 2_000,
+            folder: None,
         }
     }
 }
@@ -66,6 +71,7 @@ impl PoseHistory {
             options: PoseHistoryOptions {
                 block_rows: options.block_rows.max(1),
                 max_shown: options.max_shown.max(2),
+                folder: options.folder,
             },
             spilled_rows: 0,
             file: None,
@@ -205,7 +211,10 @@ impl PoseHistory {
     fn spill(&mut self) -> io::Result<()> {
         let file = match self.file.as_mut() {
             Some(file) => file,
-            None => self.file.insert(tempfile::tempfile()?),
+            None => self.file.insert(match &self.options.folder {
+                Some(folder) => tempfile::tempfile_in(folder)?,
+                None => tempfile::tempfile()?,
+            }),
         };
         let mut writer = BufWriter::new(file);
         let mut row = [0u8; ROW_BYTES];
@@ -257,6 +266,7 @@ mod tests {
         PoseHistoryOptions {
             block_rows: 7,
             max_shown: 10,
+            folder: None,
         }
     }
 
@@ -308,6 +318,37 @@ mod tests {
         assert_eq!(all.len(), 51);
         let first_shown = history.thinned()[0];
         assert!((first_shown.pose_in_map.x_m - 10.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_file_goes_to_the_folder_given_and_a_missing_folder_keeps_poses_in_memory() {
+        let folder = tempfile::tempdir().unwrap();
+        let mut history = PoseHistory::new(PoseHistoryOptions {
+            folder: Some(folder.path().to_path_buf()),
+            ..small()
+        });
+        for k in 0..20 {
+            history.push(pose(k));
+        }
+        assert!(history.file.is_some());
+        assert_eq!(
+            history.to_vec().unwrap(),
+            (0..20).map(pose).collect::<Vec<_>>()
+        );
+
+        let mut history = PoseHistory::new(PoseHistoryOptions {
+            folder: Some(folder.path().join("missing")),
+            ..small()
+        });
+        for k in 0..20 {
+            history.push(pose(k));
+        }
+        assert!(history.file.is_none() && history.file_failed);
+        assert_eq!(history.tail.len(), 20);
+        assert_eq!(
+            history.to_vec().unwrap(),
+            (0..20).map(pose).collect::<Vec<_>>()
+        );
     }
 
     #[test]
