@@ -7,7 +7,7 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
-use host::ekf_slam::EkfPipelineOptions;
+use host::ekf_slam::{EkfPipelineOptions, PoseHistoryOptions};
 use host::geometry::Pose2;
 use host::georef::{GeoReferencer, GeoReferencerOptions};
 use host::slam::{GridPipelineOptions, SlamOptions};
@@ -162,7 +162,10 @@ impl SlamConfig {
             max_range_m: self.ekf_max_range_m,
             landmarks_per_local_map: self.ekf_landmarks_per_local_map,
             datum_lat_lon_deg,
-            ..EkfPipelineOptions::default()
+            trajectory: PoseHistoryOptions {
+                max_shown: crate::publish::MAX_SHOWN_TRAJECTORY_POINTS,
+                ..PoseHistoryOptions::default()
+            },
         }
     }
 }

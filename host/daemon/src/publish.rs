@@ -10,7 +10,7 @@ use host::grid::{MapExport, MapExportOptions};
 use host::slam::GridPipeline;
 
 /// At most this many trajectory points are shown; longer trajectories are thinned evenly.
-const MAX_SHOWN_TRAJECTORY_POINTS: usize = 2_000;
+pub const MAX_SHOWN_TRAJECTORY_POINTS: usize = 2_000;
 
 /// Half the side of the square over which map → pixel is fitted, metres.
 const PIXEL_FIT_HALF_SIDE_M: f64 = 200.0;
