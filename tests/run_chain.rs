@@ -33,6 +33,7 @@ fn run_world(
         out: out.clone(),
         realtime: false,
         hardware: None,
+        grid_motion_filter: false,
     };
     let summary = run(&options).expect("run");
     (summary, out)

@@ -25,12 +25,14 @@ pub enum Estimator {
 }
 
 impl Estimator {
-    /// Method 2 with the daemon's default configuration.
+    /// Method 2 with the daemon's default configuration, with the motion filter when
+    /// `motion_filter` ([`host::slam::motion_filter`]).
     ///
     /// # Errors
     /// The configuration's scan-matcher options are invalid.
-    pub fn grid() -> Result<Estimator, ScanMatchError> {
-        let options = SlamConfig::default().grid_pipeline_options();
+    pub fn grid(motion_filter: bool) -> Result<Estimator, ScanMatchError> {
+        let mut options = SlamConfig::default().grid_pipeline_options();
+        options.slam.motion_filter.enabled = motion_filter;
         Ok(Estimator::Grid(Box::new(GridPipeline::new(options)?)))
     }
 
@@ -77,7 +79,7 @@ impl Estimator {
     /// How many scans the pipeline has placed so far.
     pub fn trajectory_len(&self) -> usize {
         match self {
-            Estimator::Grid(pipeline) => pipeline.scans().len(),
+            Estimator::Grid(pipeline) => pipeline.scan_count(),
             Estimator::Ekf(pipeline) => pipeline.scans_placed(),
         }
     }

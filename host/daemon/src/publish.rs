@@ -73,7 +73,7 @@ pub fn publish_grid_pose(
     image: Option<&GeoImage>,
 ) {
     // Called on every scan: only the poses shown are looked up.
-    let scans = grid.scans().len();
+    let scans = grid.scan_count();
     let time_s = scans
         .checked_sub(1)
         .and_then(|last| grid.stamped_pose(last))

@@ -20,6 +20,8 @@ use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 pub struct SlamStats {
     /// Scans added.
     pub scans: usize,
+    /// Of those, the scans the motion filter inserted: the nodes of the pose graph.
+    pub nodes: usize,
     /// Scans whose local tracking needed the wide search.
     pub wide_searches: usize,
     /// Scans whose wide search ran once more over every heading.
@@ -62,14 +64,26 @@ pub struct SlamResult {
     pub lost: Vec<bool>,
     /// What happened.
     pub stats: SlamStats,
+    /// `map_from_robot` of every node: the scans the motion filter inserted, in order.
+    pub node_poses_in_map: Vec<Pose2>,
+    /// The scans of the nodes (the beams the SLAM trusts), in order.
+    pub node_scans: Vec<Scan>,
 }
 
 impl SlamResult {
-    /// The global occupancy grid: every scan of `scans` (in the order they were added)
-    /// inserted at its optimised pose, with cells of `resolution_m`.
-    pub fn global_grid(&self, scans: &[Scan], resolution_m: f64) -> ProbabilityGrid {
+    /// The scans the map is made of (the nodes), each at its optimised pose.
+    pub fn map_scans(&self) -> impl Iterator<Item = (Pose2, &Scan)> {
+        self.node_poses_in_map
+            .iter()
+            .copied()
+            .zip(self.node_scans.iter())
+    }
+
+    /// The global occupancy grid: every node's scan inserted at its optimised pose, with
+    /// cells of `resolution_m`.
+    pub fn global_grid(&self, resolution_m: f64) -> ProbabilityGrid {
         ProbabilityGrid::from_scans(
-            self.poses_in_map.iter().copied().zip(scans.iter()),
+            self.map_scans(),
             resolution_m,
             Default::default(),
             RangeInserterOptions::default(),
@@ -84,9 +98,13 @@ pub struct GraphSlam {
     tracker: LocalTracker,
     closer: LoopCloser,
     graph: PoseGraph,
+    /// `local_from_robot` of every node (every scan the motion filter inserted).
     poses_in_local: Vec<Pose2>,
     /// For every scan, whether local tracking could not place it.
     lost: Vec<bool>,
+    /// For every scan, the node it is placed by and its pose in that node's frame (the
+    /// identity for a node's own scan).
+    scan_in_node: Vec<(usize, Pose2)>,
     /// Finished submaps with their matcher references.
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// `map_from_local` as of the last optimisation.
@@ -95,7 +113,8 @@ pub struct GraphSlam {
     confirmation: ClosureConfirmation,
     /// Searches chains of earlier scans.
     chains: ChainCloser,
-    /// Every scan added (trusted beams), for the chains.
+    /// The scan of every node (trusted beams): for the chains, the final refinement and the
+    /// map.
     scans: Vec<Scan>,
     /// The loop-closure and refinement constraints in the graph.
     closure_edges: Vec<EdgeId>,
@@ -114,6 +133,7 @@ impl GraphSlam {
             graph: PoseGraph::new(),
             poses_in_local: Vec::new(),
             lost: Vec::new(),
+            scan_in_node: Vec::new(),
             finished: Vec::new(),
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
@@ -126,19 +146,30 @@ impl GraphSlam {
         })
     }
 
-    /// Adds `scan` (end points in the robot frame), with the odometry pose at the scan when
-    /// the log has one; returns the scan's current pose in the map.
-    pub fn add_scan(&mut self, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
+    /// Adds `scan` (end points in the robot frame) taken at `time_s`, with the odometry pose
+    /// at the scan when the log has one; returns the scan's current pose in the map.
+    pub fn add_scan(&mut self, time_s: f64, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
         let scan = self.options.trusted_beams(scan);
-        let tracked = self.tracker.track(&scan, odometry);
+        let tracked = self.tracker.track(time_s, &scan, odometry);
         self.stats.scans += 1;
         self.stats.wide_searches += usize::from(tracked.searched);
         self.stats.every_heading_searches += usize::from(tracked.searched_every_heading);
         self.stats.far_searches += usize::from(tracked.searched_far);
         self.stats.lost_scans += usize::from(tracked.lost);
         self.lost.push(tracked.lost);
-        let node = tracked.node;
         let pose_in_map = self.map_from_local * tracked.pose_in_local;
+        let Some(node) = tracked.node else {
+            // Not inserted: placed relative to the last node, and moved with it.
+            let last = self.poses_in_local.len().saturating_sub(1);
+            let in_node = self
+                .poses_in_local
+                .last()
+                .map_or(Pose2::IDENTITY, |p| p.inverse() * tracked.pose_in_local);
+            self.scan_in_node.push((last, in_node));
+            return self.pose_in_map(self.lost.len() - 1).unwrap_or(pose_in_map);
+        };
+        self.stats.nodes += 1;
+        self.scan_in_node.push((node, Pose2::IDENTITY));
         // Node numbers follow scan order, so the graph's ids equal `node`; adding can only
         // fail on non-finite poses, which tracking does not produce.
         if self.graph.add_node(pose_in_map).is_ok() && node == 0 {
@@ -181,33 +212,30 @@ impl GraphSlam {
                 self.close_loops_in_chain(node, &scan, pose_in_map);
             }
         }
-        if self.options.chain_closure.enabled {
-            self.scans.push(scan);
-        }
+        self.scans.push(scan);
         if self.closures_since_optimization > 0 {
             self.optimize();
         }
-        self.pose_in_map(node).unwrap_or(pose_in_map)
+        self.node_pose_in_map(node).unwrap_or(pose_in_map)
     }
 
     /// Ends the run: a last optimisation if loops were found since the previous one, the final
     /// refinement ([`super::final_refinement`], when enabled) and the poses of every scan.
-    ///
-    /// `scans` are the scans as added, in order; the refinement is skipped when their number
-    /// is not the number added.
-    pub fn finish(mut self, scans: &[Scan]) -> SlamResult {
+    pub fn finish(mut self) -> SlamResult {
         let active = self.tracker.finish();
         self.stats.submaps += active.len();
         if self.closures_since_optimization > 0 {
             self.optimize();
         }
-        if self.options.refinement.enabled && scans.len() == self.poses_in_local.len() {
-            self.refine(scans, &active);
+        if self.options.refinement.enabled {
+            self.refine(&active);
         }
         SlamResult {
-            poses_in_map: self.graph.nodes().iter().map(|n| n.pose_in_map).collect(),
+            poses_in_map: self.poses_in_map(),
             stats: self.stats(),
+            node_poses_in_map: self.node_poses_in_map(),
             lost: self.lost,
+            node_scans: self.scans,
         }
     }
 
@@ -232,12 +260,35 @@ impl GraphSlam {
     /// Every scan's pose in the map frame as the graph holds it now (loop closures so far
     /// applied).
     pub fn poses_in_map(&self) -> Vec<Pose2> {
+        let nodes = self.node_poses_in_map();
+        self.scan_in_node
+            .iter()
+            .map(|&(node, in_node)| nodes.get(node).map_or(in_node, |&p| p * in_node))
+            .collect()
+    }
+
+    /// The pose in the map frame of the `index`-th scan added, as the graph holds it now.
+    pub fn pose_in_map(&self, index: usize) -> Option<Pose2> {
+        let &(node, in_node) = self.scan_in_node.get(index)?;
+        Some(self.node_pose_in_map(node)? * in_node)
+    }
+
+    /// The scans the map is made of (the nodes), each at its pose in the map frame now.
+    pub fn map_scans(&self) -> impl Iterator<Item = (Pose2, &Scan)> {
+        self.graph
+            .nodes()
+            .iter()
+            .map(|n| n.pose_in_map)
+            .zip(self.scans.iter())
+    }
+
+    /// Every node's pose in the map frame as the graph holds it now.
+    fn node_poses_in_map(&self) -> Vec<Pose2> {
         self.graph.nodes().iter().map(|n| n.pose_in_map).collect()
     }
 
-    /// The pose in the map frame of the scan of `node` (in the order scans were added), as
-    /// the graph holds it now.
-    pub fn pose_in_map(&self, node: usize) -> Option<Pose2> {
+    /// The pose in the map frame of `node`, as the graph holds it now.
+    fn node_pose_in_map(&self, node: usize) -> Option<Pose2> {
         self.graph.node(NodeId(node)).map(|n| n.pose_in_map)
     }
 
@@ -250,7 +301,7 @@ impl GraphSlam {
             if submap.last_node() + options.min_scans_apart > node {
                 continue;
             }
-            let Some(submap_in_map) = self.pose_in_map(submap.first_node()) else {
+            let Some(submap_in_map) = self.node_pose_in_map(submap.first_node()) else {
                 continue;
             };
             let guess = submap_in_map.inverse() * pose_in_map;
@@ -283,7 +334,7 @@ impl GraphSlam {
 
     /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
     fn close_loops_in_chain(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
-        let poses = self.poses_in_map();
+        let poses = self.node_poses_in_map();
         let confirmed = self.chains.close(
             node,
             scan,
@@ -306,18 +357,19 @@ impl GraphSlam {
 
     /// Adds the final refinement's constraints (`active`: the submaps still active at the
     /// end, now finished) and optimises once more.
-    fn refine(&mut self, scans: &[Scan], active: &[SlamSubmap]) {
-        let trusted: Vec<Scan> = scans
-            .iter()
-            .map(|s| self.options.trusted_beams(s))
-            .collect();
+    fn refine(&mut self, active: &[SlamSubmap]) {
         let submaps: Vec<&SlamSubmap> = self
             .finished
             .iter()
             .map(|(submap, _)| submap)
             .chain(active)
             .collect();
-        let closures = refinement_closures(&self.poses_in_map(), &submaps, &trusted, &self.options);
+        let closures = refinement_closures(
+            &self.node_poses_in_map(),
+            &submaps,
+            &self.scans,
+            &self.options,
+        );
         for closure in closures {
             if self.add_constraint(closure) {
                 self.stats.refinement_constraints += 1;
@@ -367,7 +419,7 @@ impl GraphSlam {
             .count();
         let last = self.poses_in_local.len().saturating_sub(1);
         if let (Some(pose_in_map), Some(pose_in_local)) =
-            (self.pose_in_map(last), self.poses_in_local.last())
+            (self.node_pose_in_map(last), self.poses_in_local.last())
         {
             self.map_from_local = pose_in_map * pose_in_local.inverse();
         }
@@ -427,10 +479,10 @@ mod tests {
             .map(|&pose| cast_front_scan(&walls, pose))
             .collect();
         let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
-        for scan in &scans {
-            slam.add_scan(scan, None);
+        for (k, scan) in scans.iter().enumerate() {
+            slam.add_scan(k as f64 * 0.1, scan, None);
         }
-        let result = slam.finish(&scans);
+        let result = slam.finish();
         assert_eq!(result.poses_in_map.len(), truth.len());
         assert!(result.stats.loop_closures > 0, "{:?}", result.stats);
         assert!(
@@ -460,9 +512,11 @@ mod tests {
             .collect();
         let (last, earlier) = scans.split_last().expect("scans");
         let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
-        for scan in earlier {
-            slam.add_scan(scan, None);
+        for (k, scan) in earlier.iter().enumerate() {
+            slam.add_scan(k as f64 * 0.1, scan, None);
         }
+        // Every scan turned enough to be a node.
+        assert_eq!(slam.stats.nodes, earlier.len());
         // The last scan, back near the start, believed 3 m behind along the corridor.
         let node = earlier.len();
         let origin = truth[0].inverse();
@@ -485,7 +539,9 @@ mod tests {
                 &mut searches,
             )
             .expect("found in the chain");
-        let frame_in_map = slam.pose_in_map(found.submap_first_node).expect("node");
+        let frame_in_map = slam
+            .node_pose_in_map(found.submap_first_node)
+            .expect("node");
         let error = (origin * truth[node]).inverse() * (frame_in_map * found.pose_in_submap);
         assert!(error.x_m.hypot(error.y_m) < 0.05, "{error:?}");
         assert!(error.theta_rad.abs() < 1f64.to_radians(), "{error:?}");
@@ -501,10 +557,10 @@ mod tests {
             .iter()
             .map(|&pose| cast_front_scan(&walls, pose))
             .collect();
-        for (scan, pose) in scans.iter().zip(&truth) {
-            slam.add_scan(scan, Some(*pose));
+        for (k, (scan, pose)) in scans.iter().zip(&truth).enumerate() {
+            slam.add_scan(k as f64 * 0.1, scan, Some(*pose));
         }
-        let result = slam.finish(&scans);
+        let result = slam.finish();
         let first = truth[0].inverse();
         let last = result.poses_in_map.last().copied().unwrap_or_default();
         let error = (first * truth[truth.len() - 1]).inverse() * last;

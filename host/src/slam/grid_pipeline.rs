@@ -44,8 +44,7 @@ pub struct GridPipeline {
     /// What it made of the whole run, once [`GridPipeline::finish`] ran.
     result: Option<SlamResult>,
     options: GridPipelineOptions,
-    /// The beams the SLAM trusted, per scan, for the final refinement and the map.
-    scans: Vec<Scan>,
+    /// The time of every scan added.
     times_s: Vec<f64>,
     last_pose: Pose2,
 }
@@ -60,7 +59,6 @@ impl GridPipeline {
             slam: Some(GraphSlam::new(options.slam.clone())?),
             result: None,
             options,
-            scans: Vec::new(),
             times_s: Vec::new(),
             last_pose: Pose2::IDENTITY,
         })
@@ -102,8 +100,7 @@ impl GridPipeline {
         let Some(slam) = self.slam.as_mut() else {
             return self.last_pose;
         };
-        self.last_pose = slam.add_scan(scan, odometry);
-        self.scans.push(self.options.slam.trusted_beams(scan));
+        self.last_pose = slam.add_scan(time_s, scan, odometry);
         self.times_s.push(time_s);
         self.last_pose
     }
@@ -113,11 +110,11 @@ impl GridPipeline {
         self.last_pose
     }
 
-    /// Ends the run: the SLAM's final refinement (every scan aligned on the submaps near it,
+    /// Ends the run: the SLAM's final refinement (every node aligned on the submaps near it,
     /// [`GraphSlam::finish`]) and its last optimisation. Scans that come later are not used.
     pub fn finish(&mut self) {
         if let Some(slam) = self.slam.take() {
-            let result = slam.finish(&self.scans);
+            let result = slam.finish();
             if let Some(&last) = result.poses_in_map.last() {
                 self.last_pose = last;
             }
@@ -153,9 +150,9 @@ impl GridPipeline {
         self.times_s.iter().copied().zip(poses).collect()
     }
 
-    /// The scans used, with only the beams the SLAM trusts, in the order they were added.
-    pub fn scans(&self) -> &[Scan] {
-        &self.scans
+    /// How many scans were added.
+    pub fn scan_count(&self) -> usize {
+        self.times_s.len()
     }
 
     /// Whether local tracking could not place the last scan: the robot is lost until a scan
@@ -182,18 +179,21 @@ impl GridPipeline {
         }
     }
 
-    /// The global occupancy grid from every scan at its current pose.
+    /// The global occupancy grid from the scans the map is made of (those the motion filter
+    /// inserted, [`crate::slam::motion_filter`]) at their current poses.
     ///
     /// Drawn at the options' `map_resolution_m`, doubled as often as needed for every scan to
     /// fit whole.
     pub fn global_grid(&self) -> ProbabilityGrid {
-        let poses = self.poses_in_map();
-        let resolution_m = global_grid_resolution_m(
-            poses.iter().copied().zip(self.scans.iter()),
-            self.options.map_resolution_m,
-        );
+        let map_scans: Vec<(Pose2, &Scan)> = match (&self.result, &self.slam) {
+            (Some(result), _) => result.map_scans().collect(),
+            (None, Some(slam)) => slam.map_scans().collect(),
+            (None, None) => Vec::new(),
+        };
+        let resolution_m =
+            global_grid_resolution_m(map_scans.iter().copied(), self.options.map_resolution_m);
         ProbabilityGrid::from_scans(
-            poses.into_iter().zip(self.scans.iter()),
+            map_scans,
             resolution_m,
             Default::default(),
             RangeInserterOptions::default(),

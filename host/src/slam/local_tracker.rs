@@ -29,12 +29,14 @@
 //! predicted pose and is flagged lost ([`TrackedScan::lost`]); its constraint to the scan
 //! before carries the prior's uncertainty, so that a loop closure can undo it.
 //!
-//! The pose found goes into both active submaps; the older is finished when the newer has
-//! received [`SlamOptions::scans_per_submap`] scans.
+//! The pose found goes into both active submaps when the [`MotionFilter`] admits the scan (the
+//! robot moved or turned enough since the last scan inserted); the older is finished when the
+//! newer has received [`SlamOptions::scans_per_submap`] scans.
 
 use nalgebra::Matrix3;
 
 use super::icp::align;
+use super::motion_filter::MotionFilter;
 use super::motion_prior::MotionPrior;
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
@@ -46,8 +48,9 @@ use crate::scan_match::{FastMatcher, Scan};
 /// What tracking made of one scan.
 #[derive(Clone, Debug)]
 pub struct TrackedScan {
-    /// The scan's node number (0, 1, 2, … in the order scans came).
-    pub node: usize,
+    /// The scan's node number (0, 1, 2, … in the order scans were inserted), or `None` when
+    /// the motion filter did not insert it ([`super::motion_filter`]).
+    pub node: Option<usize>,
     /// `local_from_robot` at the scan.
     pub pose_in_local: Pose2,
     /// How the scan fits the submap it was aligned on (default for the first scan).
@@ -104,6 +107,7 @@ pub struct LocalTracker {
     /// The search for scans farther apart than the wide window reaches.
     far_search: FastMatcher,
     prior: MotionPrior,
+    filter: MotionFilter,
     last_pose_in_local: Option<Pose2>,
     last_motion: Pose2,
     last_odometry: Option<Pose2>,
@@ -143,6 +147,7 @@ impl LocalTracker {
             full_turn_search,
             far_search,
             prior: MotionPrior::new(local.motion_prior),
+            filter: MotionFilter::new(options.motion_filter),
             recent: RecentScans::new(local.recent_scans),
             active: Vec::new(),
             last_pose_in_local: None,
@@ -153,11 +158,9 @@ impl LocalTracker {
         })
     }
 
-    /// Places `scan` (beam end points in the robot frame) in the local frame; `odometry` is
-    /// the robot's pose in the odometry frame at the scan, when known.
-    pub fn track(&mut self, scan: &Scan, odometry: Option<Pose2>) -> TrackedScan {
-        let node = self.next_node;
-        self.next_node += 1;
+    /// Places `scan` (beam end points in the robot frame), taken at `time_s`, in the local
+    /// frame; `odometry` is the robot's pose in the odometry frame at the scan, when known.
+    pub fn track(&mut self, time_s: f64, scan: &Scan, odometry: Option<Pose2>) -> TrackedScan {
         let odometry_motion = match (self.last_odometry, odometry) {
             (Some(previous), Some(current)) => Some(previous.inverse() * current),
             _ => None,
@@ -165,7 +168,7 @@ impl LocalTracker {
         self.last_odometry = odometry;
         let Some(last_pose) = self.last_pose_in_local else {
             let pose = Pose2::IDENTITY;
-            self.accept(node, scan, pose);
+            let (node, _) = self.accept(time_s, scan, pose, true);
             return TrackedScan {
                 node,
                 pose_in_local: pose,
@@ -249,7 +252,9 @@ impl LocalTracker {
             }
             None => (predicted, SubmapFit::default(), None),
         };
-        let finished_submap = self.accept(node, scan, pose);
+        // A scan local tracking had to search for is inserted whatever its motion: its pose
+        // is the less certain, and a loop closure may need it as a node.
+        let (node, finished_submap) = self.accept(time_s, scan, pose, searched);
         self.last_motion = last_pose.inverse() * pose;
         TrackedScan {
             node,
@@ -351,8 +356,22 @@ impl LocalTracker {
         guesses
     }
 
-    /// Inserts the scan at `pose` and starts and finishes submaps as due.
-    fn accept(&mut self, node: usize, scan: &Scan, pose: Pose2) -> Option<SlamSubmap> {
+    /// Takes the scan taken at `time_s` as at `pose`: inserts it when `always` or when the
+    /// motion filter admits it, and starts and finishes submaps as due. Returns its node
+    /// number when it was inserted, and the submap it finished.
+    fn accept(
+        &mut self,
+        time_s: f64,
+        scan: &Scan,
+        pose: Pose2,
+        always: bool,
+    ) -> (Option<usize>, Option<SlamSubmap>) {
+        self.last_pose_in_local = Some(pose);
+        if !self.filter.admits(time_s, pose, always) {
+            return (None, None);
+        }
+        let node = self.next_node;
+        self.next_node += 1;
         if self.active.is_empty() {
             self.active.push(SlamSubmap::new(
                 pose,
@@ -380,8 +399,7 @@ impl LocalTracker {
             }
         }
         self.recent.push(pose, scan.clone());
-        self.last_pose_in_local = Some(pose);
-        finished
+        (Some(node), finished)
     }
 
     /// Finishes and returns the active submaps (at the end of a run).
@@ -450,7 +468,7 @@ mod tests {
         let mut last = Pose2::IDENTITY;
         for heading in headings_deg {
             let scan = room_scan(Pose2::new(0.3, -0.2, heading.to_radians()));
-            last = tracker.track(&scan, None).pose_in_local;
+            last = tracker.track(0.0, &scan, None).pose_in_local;
         }
         last.theta_rad.to_degrees()
     }
@@ -462,7 +480,7 @@ mod tests {
         let mut truth = Pose2::new(0.3, -0.2, 0.0);
         let mut last = None;
         for _ in 0..5 {
-            let tracked = tracker.track(&room_scan(truth), None);
+            let tracked = tracker.track(0.0, &room_scan(truth), None);
             assert!(!tracked.lost);
             assert!(tracked.confidence > 0.0);
             last = Some(tracked.pose_in_local);
@@ -477,7 +495,7 @@ mod tests {
             [-30.0, 30.0],
         ]);
         let elsewhere = cast_front_scan(&hall, Pose2::new(0.0, 0.0, 0.4));
-        let tracked = tracker.track(&elsewhere, None);
+        let tracked = tracker.track(0.0, &elsewhere, None);
         assert!(tracked.lost, "{:?}", tracked.fit);
         assert_eq!(tracked.confidence, 0.0);
         // The prediction: the last step repeated.

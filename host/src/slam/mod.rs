@@ -36,6 +36,7 @@ mod grid_pipeline;
 pub mod icp;
 mod local_tracker;
 mod loop_closer;
+pub mod motion_filter;
 pub mod motion_prior;
 mod options;
 pub mod point_grid;
@@ -48,6 +49,7 @@ pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
 pub use grid_pipeline::{GridPipeline, GridPipelineOptions};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
+pub use motion_filter::{MotionFilter, MotionFilterOptions};
 pub use motion_prior::{MotionPrior, MotionPriorOptions};
 pub use options::{
     ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,

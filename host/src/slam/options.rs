@@ -2,6 +2,7 @@
 
 use super::closure_confirmation::ConfirmationOptions;
 use super::icp::IcpOptions;
+use super::motion_filter::MotionFilterOptions;
 use super::motion_prior::MotionPriorOptions;
 use super::point_map::PointMapOptions;
 use super::slam_submap::SubmapFit;
@@ -16,6 +17,8 @@ pub struct SlamOptions {
     pub submap: SubmapOptions,
     /// How submaps keep their end points for alignment.
     pub point_map: PointMapOptions,
+    /// Which tracked scans are inserted into the submaps and the pose graph.
+    pub motion_filter: MotionFilterOptions,
     /// Scans a submap receives before the next one starts; each submap receives up to twice as
     /// many (two submaps are active at a time).
     pub scans_per_submap: usize,
@@ -82,6 +85,7 @@ impl Default for SlamOptions {
         SlamOptions {
             submap,
             point_map: PointMapOptions::default(),
+            motion_filter: MotionFilterOptions::default(),
             scans_per_submap: 30,
             max_range_m: 50.0,
             min_range_m: 0.1,
