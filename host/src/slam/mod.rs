@@ -9,14 +9,17 @@
 //!   of the scanned surface fits, a wide search with the exact
 //!   [`FastMatcher`](crate::scan_match::FastMatcher) against the last scans finds the pose
 //!   first. Scans go into two overlapping submaps with log-odds ray insertion; a submap is
-//!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans.
+//!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans. With the
+//!   [`MotionFilter`] on (it is off by default), only the scans after which the robot moved
+//!   or turned enough are inserted and become nodes; the others are placed relative to the
+//!   last node.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
 //!   then aligned on the submap's points; a match good enough becomes a constraint. A scan
 //!   no submap took is searched once more, over ±10 m, in a chain of the earlier scans
 //!   around the one nearest to it ([`ChainClosureOptions`]): a long loop drifts further than
 //!   the submaps' window, and a stretch that local tracking got wrong blurs a whole submap.
-//! * **Pose graph** ([`crate::pose_graph`]): one node per scan, an edge per consecutive pair
+//! * **Pose graph** ([`crate::pose_graph`]): one node per inserted scan, an edge per consecutive pair
 //!   from local tracking (left almost free along a corridor's axis, [`degeneracy`]), an edge
 //!   per loop closure (robust kernel) from the submap's first
 //!   scan; solved with a sparse Cholesky factorisation whenever loops were found.
