@@ -159,16 +159,19 @@ impl GraphSlam {
         self.lost.push(tracked.lost);
         let pose_in_map = self.map_from_local * tracked.pose_in_local;
         let Some(node) = tracked.node else {
-            // Not inserted: placed relative to the last node, and moved with it.
-            let last = self.poses_in_local.len().saturating_sub(1);
-            let in_node = self
-                .poses_in_local
-                .last()
-                .map_or(Pose2::IDENTITY, |p| p.inverse() * tracked.pose_in_local);
-            self.scan_in_node.push((last, in_node));
-            return self.pose_in_map(self.lost.len() - 1).unwrap_or(pose_in_map);
+            // Not inserted (never the first scan): placed relative to the last node, and moved
+            // with it.
+            if let Some(&anchor_in_local) = self.poses_in_local.last() {
+                let last = self.poses_in_local.len() - 1;
+                let in_node = anchor_in_local.inverse() * tracked.pose_in_local;
+                self.scan_in_node.push((last, in_node));
+                return self
+                    .node_pose_in_map(last)
+                    .map_or(pose_in_map, |p| p * in_node);
+            }
+            self.scan_in_node.push((0, Pose2::IDENTITY));
+            return pose_in_map;
         };
-        self.stats.nodes += 1;
         self.scan_in_node.push((node, Pose2::IDENTITY));
         // Node numbers follow scan order, so the graph's ids equal `node`; adding can only
         // fail on non-finite poses, which tracking does not produce.
@@ -242,6 +245,7 @@ impl GraphSlam {
     /// What happened so far.
     pub fn stats(&self) -> SlamStats {
         SlamStats {
+            nodes: self.poses_in_local.len(),
             rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
             ..self.stats
         }
@@ -516,7 +520,7 @@ mod tests {
             slam.add_scan(k as f64 * 0.1, scan, None);
         }
         // Every scan turned enough to be a node.
-        assert_eq!(slam.stats.nodes, earlier.len());
+        assert_eq!(slam.stats().nodes, earlier.len());
         // The last scan, back near the start, believed 3 m behind along the corridor.
         let node = earlier.len();
         let origin = truth[0].inverse();
