@@ -13,12 +13,15 @@
 //! * Method 1, outdoors: [`landmarks`] (trees and corners from raw scans) and [`ekf_slam`]
 //!   (EKF local maps, map joining, history memory, GPS; the method, [`ekf_slam::LandmarkSlam`],
 //!   and its board-link adapter [`ekf_slam::EkfPipeline`]).
+//! * [`camera`]: Method 1 on a single camera (MonoSLAM-style EKF, inverse-depth features;
+//!   the method, [`camera::MonoSlam`]).
 //! * [`georef`]: GPS in a local metric frame, the map aligned to it, WGS84 exports;
 //!   [`geoimage`]: geo-referenced images.
 //! * [`recording`]: every read from the board and every decoded message to MCAP, for
 //!   Foxglove and for replay.
 //! * [`evaluation`]: accuracy on relations (Kümmerle et al. 2009), error to GPS, NEES.
 
+pub mod camera;
 pub mod ekf_slam;
 pub mod evaluation;
 mod floor;

@@ -14,6 +14,7 @@ pub mod hardware;
 pub mod nees;
 pub mod parsers;
 pub mod replay;
+pub mod replay_camera;
 pub mod replay_carmen;
 pub mod replay_victoria;
 pub mod report;

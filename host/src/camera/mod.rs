@@ -1,0 +1,22 @@
+//! Method 1 on a single camera (MonoSLAM-style): an EKF over the camera and its 3D point
+//! features, with inverse-depth features, active search and 1-point RANSAC.
+//!
+//! * [`pinhole`]: the camera model, with radial–tangential distortion.
+//! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
+//! * [`patch`]: feature patches and their correlation search.
+//! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
+//! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
+//! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
+
+pub mod mono_ekf;
+pub mod mono_slam;
+pub mod patch;
+pub mod pinhole;
+pub mod sequence;
+pub mod trajectory_error;
+
+pub use mono_ekf::{MonoEkf, MonoEkfOptions};
+pub use mono_slam::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats};
+pub use pinhole::PinholeCamera;
+pub use sequence::{CameraSequence, SequenceError, SequenceLayout};
+pub use trajectory_error::{TrajectoryError, trajectory_error};

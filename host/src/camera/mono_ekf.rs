@@ -1,0 +1,676 @@
+//! The monocular EKF: one camera and its 3D point features in one state with the full
+//! covariance (Davison et al. 2007, "MonoSLAM"), features in inverse depth from their first
+//! sighting (Civera, Davison and Montiel 2008, "Inverse Depth Parametrization for Monocular
+//! SLAM").
+//!
+//! The state starts with the camera's 13 numbers: position `r` (m) and orientation `q`
+//! (`world_from_camera`, a quaternion `w x y z`) in the world frame, linear velocity `v`
+//! (m/s, world frame) and angular velocity `ω` (rad/s, camera frame). The world frame is the
+//! first frame's camera frame (x right, y down, z forward). Motion is constant velocity, with
+//! unknown accelerations as impulses on `v` and `ω` each step.
+//!
+//! A feature is either six numbers in inverse depth, `(x y z θ φ ρ)`: the camera centre it was
+//! first seen from, the azimuth and elevation of its ray in the world frame and the inverse of
+//! its depth along that ray, which the first sighting leaves almost unknown and which is nearly
+//! Gaussian even so; or, once its depth is well determined (Civera's linearity index below a
+//! threshold), three, its Euclidean position.
+//!
+//! Jacobians are taken by central differences of the exact models: the measurement and motion
+//! models are a few lines each, and a difference Jacobian cannot disagree with them.
+
+use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector3};
+
+use super::pinhole::PinholeCamera;
+
+/// Numbers in the camera part of the state.
+pub const CAMERA_STATE: usize = 13;
+
+/// How the filter models motion, measurements and new features.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MonoEkfOptions {
+    /// Standard deviation of the unknown linear acceleration, m/s².
+    pub linear_acceleration_sigma: f64,
+    /// Standard deviation of the unknown angular acceleration, rad/s².
+    pub angular_acceleration_sigma: f64,
+    /// Standard deviation of a feature's measured pixel, px.
+    pub pixel_sigma_px: f64,
+    /// Standard deviation of the camera's velocity at the start: linear (m/s), angular (rad/s).
+    pub initial_velocity_sigma: [f64; 2],
+    /// A new feature's inverse depth, 1/m, and its standard deviation: the depth prior
+    /// reaches from infinity to about a metre.
+    pub initial_inverse_depth: [f64; 2],
+    /// An inverse-depth feature becomes a Euclidean point once its linearity index falls below
+    /// this (Civera et al. 2008 use 0.1).
+    pub linearity_threshold: f64,
+}
+
+impl Default for MonoEkfOptions {
+    fn default() -> Self {
+        MonoEkfOptions {
+            linear_acceleration_sigma: 6.0,
+            angular_acceleration_sigma: 6.0,
+            pixel_sigma_px: 1.0,
+            initial_velocity_sigma: [0.75, 0.75],
+            initial_inverse_depth: [0.1, 0.5],
+            linearity_threshold: 0.1,
+        }
+    }
+}
+
+/// How a feature is held in the state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FeatureKind {
+    /// Six numbers: `(x y z θ φ ρ)`.
+    InverseDepth,
+    /// Three numbers: the point in the world frame.
+    Euclidean,
+}
+
+impl FeatureKind {
+    /// Numbers of the state this kind takes.
+    pub fn size(self) -> usize {
+        match self {
+            FeatureKind::InverseDepth => 6,
+            FeatureKind::Euclidean => 3,
+        }
+    }
+}
+
+/// The camera and its features: mean and covariance. See the [module documentation](self).
+#[derive(Clone, Debug)]
+pub struct MonoEkf {
+    options: MonoEkfOptions,
+    camera: PinholeCamera,
+    x: DVector<f64>,
+    p: DMatrix<f64>,
+    /// Kind of each feature, in state order.
+    kinds: Vec<FeatureKind>,
+    /// Offset of each feature in the state.
+    offsets: Vec<usize>,
+}
+
+/// A feature's predicted measurement: its pixel, the Jacobians of the pixel with respect to
+/// the camera state and to the feature, and the innovation covariance.
+#[derive(Clone, Debug)]
+pub struct Prediction {
+    pub pixel: [f64; 2],
+    pub jacobian_camera: DMatrix<f64>,
+    pub jacobian_feature: DMatrix<f64>,
+    pub innovation_covariance: Matrix2<f64>,
+}
+
+/// The unit vector of azimuth `theta` and elevation `phi` (camera convention, y down).
+fn direction(theta: f64, phi: f64) -> Vector3<f64> {
+    Vector3::new(phi.cos() * theta.sin(), -phi.sin(), phi.cos() * theta.cos())
+}
+
+fn quaternion(q: &[f64]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// The camera state after `dt_s` of constant velocity with velocity impulses `impulse`
+/// (`[Δv; Δω]`).
+fn motion(camera: &[f64], impulse: &[f64; 6], dt_s: f64) -> [f64; CAMERA_STATE] {
+    let v = Vector3::new(
+        camera[7] + impulse[0],
+        camera[8] + impulse[1],
+        camera[9] + impulse[2],
+    );
+    let w = Vector3::new(
+        camera[10] + impulse[3],
+        camera[11] + impulse[4],
+        camera[12] + impulse[5],
+    );
+    let r = Vector3::new(camera[0], camera[1], camera[2]) + v * dt_s;
+    // The raw quaternion times the rotation of ω dt: not normalised, so that the Jacobian
+    // sees the state's four numbers as they are.
+    let q = nalgebra::Quaternion::new(camera[3], camera[4], camera[5], camera[6]);
+    let turn = UnitQuaternion::from_scaled_axis(w * dt_s);
+    let q = q * turn.into_inner();
+    [
+        r.x, r.y, r.z, q.w, q.i, q.j, q.k, v.x, v.y, v.z, w.x, w.y, w.z,
+    ]
+}
+
+/// The feature's point in the camera frame, up to a positive scale for an inverse-depth
+/// feature (its direction times ρ).
+fn in_camera(camera: &[f64], kind: FeatureKind, feature: &[f64]) -> Vector3<f64> {
+    let r = Vector3::new(camera[0], camera[1], camera[2]);
+    let q = nalgebra::Quaternion::new(camera[3], camera[4], camera[5], camera[6]);
+    // Rotation by the unnormalised quaternion's normalised form.
+    let world_from_camera = UnitQuaternion::from_quaternion(q);
+    let in_world = match kind {
+        FeatureKind::InverseDepth => {
+            let anchor = Vector3::new(feature[0], feature[1], feature[2]);
+            (anchor - r) * feature[5] + direction(feature[3], feature[4])
+        }
+        FeatureKind::Euclidean => Vector3::new(feature[0], feature[1], feature[2]) - r,
+    };
+    world_from_camera.inverse_transform_vector(&in_world)
+}
+
+/// Central-difference Jacobian of `f` at `at` (`rows` outputs).
+fn jacobian(
+    at: &[f64],
+    rows: usize,
+    mut f: impl FnMut(&[f64]) -> Option<Vec<f64>>,
+) -> Option<DMatrix<f64>> {
+    let mut j = DMatrix::zeros(rows, at.len());
+    let mut point = at.to_vec();
+    for c in 0..at.len() {
+        let h = 1e-6 * at[c].abs().max(1.0);
+        point[c] = at[c] + h;
+        let plus = f(&point)?;
+        point[c] = at[c] - h;
+        let minus = f(&point)?;
+        point[c] = at[c];
+        for r in 0..rows {
+            j[(r, c)] = (plus[r] - minus[r]) / (2.0 * h);
+        }
+    }
+    Some(j)
+}
+
+impl MonoEkf {
+    /// A filter with the camera at the world origin, at rest, and no features.
+    pub fn new(camera: PinholeCamera, options: MonoEkfOptions) -> Self {
+        let mut x = DVector::zeros(CAMERA_STATE);
+        x[3] = 1.0;
+        let mut p = DMatrix::zeros(CAMERA_STATE, CAMERA_STATE);
+        let [sigma_v, sigma_w] = options.initial_velocity_sigma;
+        for i in 7..10 {
+            p[(i, i)] = sigma_v * sigma_v;
+        }
+        for i in 10..13 {
+            p[(i, i)] = sigma_w * sigma_w;
+        }
+        MonoEkf {
+            options,
+            camera,
+            x,
+            p,
+            kinds: Vec::new(),
+            offsets: Vec::new(),
+        }
+    }
+
+    /// The camera model.
+    pub fn camera(&self) -> &PinholeCamera {
+        &self.camera
+    }
+
+    /// The camera's position in the world frame, m.
+    pub fn position_m(&self) -> Vector3<f64> {
+        Vector3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    /// `world_from_camera`.
+    pub fn orientation(&self) -> UnitQuaternion<f64> {
+        quaternion(&self.x.as_slice()[3..7])
+    }
+
+    /// Number of features in the state.
+    pub fn num_features(&self) -> usize {
+        self.kinds.len()
+    }
+
+    /// How feature `index` is held.
+    pub fn kind(&self, index: usize) -> FeatureKind {
+        self.kinds[index]
+    }
+
+    /// Size of the state.
+    pub fn state_size(&self) -> usize {
+        self.x.len()
+    }
+
+    fn feature(&self, index: usize) -> &[f64] {
+        let offset = self.offsets[index];
+        &self.x.as_slice()[offset..offset + self.kinds[index].size()]
+    }
+
+    /// The feature's best point estimate in the world frame (an inverse-depth feature at its
+    /// mean depth), or `None` for an inverse-depth feature with its depth at infinity.
+    pub fn point_in_world(&self, index: usize) -> Option<Vector3<f64>> {
+        let f = self.feature(index);
+        match self.kinds[index] {
+            FeatureKind::Euclidean => Some(Vector3::new(f[0], f[1], f[2])),
+            FeatureKind::InverseDepth => {
+                (f[5] > 1e-6).then(|| Vector3::new(f[0], f[1], f[2]) + direction(f[3], f[4]) / f[5])
+            }
+        }
+    }
+
+    /// Propagates the camera by constant velocity over `dt_s`.
+    pub fn predict(&mut self, dt_s: f64) {
+        if dt_s <= 0.0 {
+            return;
+        }
+        let camera: Vec<f64> = self.x.as_slice()[..CAMERA_STATE].to_vec();
+        let zero = [0.0; 6];
+        let next = motion(&camera, &zero, dt_s);
+        let f = jacobian(&camera, CAMERA_STATE, |c| {
+            Some(motion(c, &zero, dt_s).to_vec())
+        })
+        .unwrap_or_else(|| DMatrix::identity(CAMERA_STATE, CAMERA_STATE));
+        let g = jacobian(&zero, CAMERA_STATE, |n| {
+            let impulse = [n[0], n[1], n[2], n[3], n[4], n[5]];
+            Some(motion(&camera, &impulse, dt_s).to_vec())
+        })
+        .unwrap_or_else(|| DMatrix::zeros(CAMERA_STATE, 6));
+        let (a, alpha) = (
+            self.options.linear_acceleration_sigma * dt_s,
+            self.options.angular_acceleration_sigma * dt_s,
+        );
+        let q = DMatrix::from_diagonal(&DVector::from_vec(vec![
+            a * a,
+            a * a,
+            a * a,
+            alpha * alpha,
+            alpha * alpha,
+            alpha * alpha,
+        ]));
+        let n = self.x.len();
+        self.x.as_mut_slice()[..CAMERA_STATE].copy_from_slice(&next);
+        let pcc = self
+            .p
+            .view((0, 0), (CAMERA_STATE, CAMERA_STATE))
+            .clone_owned();
+        let new_pcc = &f * pcc * f.transpose() + &g * q * g.transpose();
+        let rest = n - CAMERA_STATE;
+        if rest > 0 {
+            let pcf = self
+                .p
+                .view((0, CAMERA_STATE), (CAMERA_STATE, rest))
+                .clone_owned();
+            let new_pcf = &f * pcf;
+            self.p
+                .view_mut((0, CAMERA_STATE), (CAMERA_STATE, rest))
+                .copy_from(&new_pcf);
+            self.p
+                .view_mut((CAMERA_STATE, 0), (rest, CAMERA_STATE))
+                .copy_from(&new_pcf.transpose());
+        }
+        self.p
+            .view_mut((0, 0), (CAMERA_STATE, CAMERA_STATE))
+            .copy_from(&new_pcc);
+        self.normalise_quaternion();
+    }
+
+    fn normalise_quaternion(&mut self) {
+        let norm = self.x.rows(3, 4).norm();
+        if norm > 0.0 {
+            for i in 3..7 {
+                self.x[i] /= norm;
+            }
+        }
+    }
+
+    /// The pixel of feature `index` seen from the state `x`.
+    fn pixel_at(&self, x: &DVector<f64>, index: usize) -> Option<[f64; 2]> {
+        let offset = self.offsets[index];
+        let kind = self.kinds[index];
+        let feature = &x.as_slice()[offset..offset + kind.size()];
+        self.camera
+            .project(&in_camera(&x.as_slice()[..CAMERA_STATE], kind, feature))
+    }
+
+    /// The pixel of feature `index` from the current mean.
+    pub fn pixel(&self, index: usize) -> Option<[f64; 2]> {
+        self.pixel_at(&self.x, index)
+    }
+
+    /// Feature `index`'s predicted measurement, or `None` when it lies behind the camera.
+    pub fn predict_measurement(&self, index: usize) -> Option<Prediction> {
+        let pixel = self.pixel(index)?;
+        let kind = self.kinds[index];
+        let offset = self.offsets[index];
+        let camera_state = &self.x.as_slice()[..CAMERA_STATE];
+        let feature = self.feature(index);
+        let project = |c: &[f64], f: &[f64]| {
+            self.camera
+                .project(&in_camera(c, kind, f))
+                .map(|p| p.to_vec())
+        };
+        let jacobian_camera = jacobian(camera_state, 2, |c| project(c, feature))?;
+        let jacobian_feature = jacobian(feature, 2, |f| project(camera_state, f))?;
+        let size = kind.size();
+        let pcc = self.p.view((0, 0), (CAMERA_STATE, CAMERA_STATE));
+        let pcf = self.p.view((0, offset), (CAMERA_STATE, size));
+        let pff = self.p.view((offset, offset), (size, size));
+        let hc = &jacobian_camera;
+        let hf = &jacobian_feature;
+        let cross = hc * pcf * hf.transpose();
+        let s = hc * pcc * hc.transpose() + &cross + cross.transpose() + hf * pff * hf.transpose();
+        let sigma2 = self.options.pixel_sigma_px * self.options.pixel_sigma_px;
+        let innovation_covariance =
+            Matrix2::new(s[(0, 0)] + sigma2, s[(0, 1)], s[(1, 0)], s[(1, 1)] + sigma2);
+        Some(Prediction {
+            pixel,
+            jacobian_camera,
+            jacobian_feature,
+            innovation_covariance,
+        })
+    }
+
+    /// `P Hᵀ` for one feature's measurement (`n × 2`).
+    fn p_ht(&self, index: usize, prediction: &Prediction) -> DMatrix<f64> {
+        let n = self.x.len();
+        let offset = self.offsets[index];
+        let size = self.kinds[index].size();
+        self.p.view((0, 0), (n, CAMERA_STATE)) * prediction.jacobian_camera.transpose()
+            + self.p.view((0, offset), (n, size)) * prediction.jacobian_feature.transpose()
+    }
+
+    /// The state mean after updating with feature `index` measured at `pixel` alone (the
+    /// covariance untouched): a 1-point RANSAC hypothesis.
+    pub fn hypothesis(
+        &self,
+        index: usize,
+        prediction: &Prediction,
+        pixel: [f64; 2],
+    ) -> Option<DVector<f64>> {
+        let s_inv = prediction.innovation_covariance.try_inverse()?;
+        let gain = self.p_ht(index, prediction) * s_inv;
+        let innovation = nalgebra::Vector2::new(
+            pixel[0] - prediction.pixel[0],
+            pixel[1] - prediction.pixel[1],
+        );
+        Some(&self.x + gain * innovation)
+    }
+
+    /// The pixel of feature `index` from the state `x` (a hypothesis).
+    pub fn pixel_in(&self, x: &DVector<f64>, index: usize) -> Option<[f64; 2]> {
+        self.pixel_at(x, index)
+    }
+
+    /// Updates with the features `measured` (index and pixel) together. Returns false (and
+    /// leaves the state) when the innovation covariance is not positive definite.
+    pub fn update(&mut self, measured: &[(usize, [f64; 2])]) -> bool {
+        let rows: Vec<(usize, [f64; 2], Prediction)> = measured
+            .iter()
+            .filter_map(|&(index, pixel)| Some((index, pixel, self.predict_measurement(index)?)))
+            .collect();
+        if rows.is_empty() {
+            return false;
+        }
+        let n = self.x.len();
+        let m = 2 * rows.len();
+        let mut h = DMatrix::zeros(m, n);
+        let mut innovation = DVector::zeros(m);
+        for (k, (index, pixel, prediction)) in rows.iter().enumerate() {
+            let offset = self.offsets[*index];
+            let size = self.kinds[*index].size();
+            h.view_mut((2 * k, 0), (2, CAMERA_STATE))
+                .copy_from(&prediction.jacobian_camera);
+            h.view_mut((2 * k, offset), (2, size))
+                .copy_from(&prediction.jacobian_feature);
+            innovation[2 * k] = pixel[0] - prediction.pixel[0];
+            innovation[2 * k + 1] = pixel[1] - prediction.pixel[1];
+        }
+        let p_ht = &self.p * h.transpose();
+        let sigma2 = self.options.pixel_sigma_px * self.options.pixel_sigma_px;
+        let s = &h * &p_ht + DMatrix::identity(m, m) * sigma2;
+        let Some(cholesky) = s.cholesky() else {
+            return false;
+        };
+        // K = P Hᵀ S⁻¹, as the solution of S Kᵀ = H P.
+        let gain = cholesky.solve(&p_ht.transpose()).transpose();
+        self.x += &gain * innovation;
+        self.p -= &gain * p_ht.transpose();
+        self.p = (&self.p + self.p.transpose()) * 0.5;
+        self.normalise_quaternion();
+        true
+    }
+
+    /// Adds a feature first seen at `pixel` from the current camera pose, in inverse depth
+    /// with the prior depth (undelayed initialisation). Returns its index, or `None` when the
+    /// pixel has no ray (outside the calibrated field).
+    pub fn add_feature(&mut self, pixel: [f64; 2]) -> Option<usize> {
+        let [rho, sigma_rho] = self.options.initial_inverse_depth;
+        let init = |pose: &[f64], pixel: &[f64]| -> Option<Vec<f64>> {
+            let ray = self.camera.ray([pixel[0], pixel[1]])?;
+            let d = quaternion(&pose[3..7]) * ray;
+            let theta = d.x.atan2(d.z);
+            let phi = (-d.y).atan2(d.x.hypot(d.z));
+            Some(vec![pose[0], pose[1], pose[2], theta, phi])
+        };
+        let pose: Vec<f64> = self.x.as_slice()[..7].to_vec();
+        let feature5 = init(&pose, &pixel)?;
+        let j_pose = jacobian(&pose, 5, |p| init(p, &pixel))?;
+        let j_pixel = jacobian(&pixel, 5, |px| init(&pose, px))?;
+        let n = self.x.len();
+        let mut x = DVector::zeros(n + 6);
+        x.rows_mut(0, n).copy_from(&self.x);
+        for (i, value) in feature5.iter().enumerate() {
+            x[n + i] = *value;
+        }
+        x[n + 5] = rho;
+        let mut p = DMatrix::zeros(n + 6, n + 6);
+        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
+        // Cross-covariance with the rest of the state, through the pose.
+        let cross = &j_pose * self.p.view((0, 0), (7, n)); // 5 × n
+        p.view_mut((n, 0), (5, n)).copy_from(&cross);
+        p.view_mut((0, n), (n, 5)).copy_from(&cross.transpose());
+        let sigma2 = self.options.pixel_sigma_px * self.options.pixel_sigma_px;
+        let own = &j_pose * self.p.view((0, 0), (7, 7)) * j_pose.transpose()
+            + &j_pixel * j_pixel.transpose() * sigma2;
+        p.view_mut((n, n), (5, 5)).copy_from(&own);
+        p[(n + 5, n + 5)] = sigma_rho * sigma_rho;
+        self.x = x;
+        self.p = p;
+        self.kinds.push(FeatureKind::InverseDepth);
+        self.offsets.push(n);
+        Some(self.kinds.len() - 1)
+    }
+
+    /// Civera's linearity index of inverse-depth feature `index`: how far from linear the
+    /// map from inverse depth to point is over its uncertainty (small: convert it).
+    pub fn linearity_index(&self, index: usize) -> Option<f64> {
+        if self.kinds[index] != FeatureKind::InverseDepth {
+            return None;
+        }
+        let f = self.feature(index);
+        let offset = self.offsets[index];
+        let rho = f[5];
+        if rho <= 1e-6 {
+            return None;
+        }
+        let sigma_rho = self.p[(offset + 5, offset + 5)].max(0.0).sqrt();
+        let m = direction(f[3], f[4]);
+        let point = Vector3::new(f[0], f[1], f[2]) + m / rho;
+        let from_camera = point - self.position_m();
+        let distance = from_camera.norm();
+        if distance <= 0.0 {
+            return None;
+        }
+        let cos_alpha = m.dot(&from_camera) / distance;
+        let sigma_d = sigma_rho / (rho * rho);
+        Some(4.0 * sigma_d / distance * cos_alpha.abs())
+    }
+
+    /// Turns inverse-depth features whose linearity index is below the threshold into
+    /// Euclidean points. Returns how many were converted.
+    pub fn convert_linear_features(&mut self) -> usize {
+        let mut converted = 0;
+        for index in 0..self.kinds.len() {
+            if self
+                .linearity_index(index)
+                .is_some_and(|l| l < self.options.linearity_threshold)
+            {
+                self.convert(index);
+                converted += 1;
+            }
+        }
+        converted
+    }
+
+    fn convert(&mut self, index: usize) {
+        let offset = self.offsets[index];
+        let f: Vec<f64> = self.feature(index).to_vec();
+        let to_point = |f: &[f64]| -> Option<Vec<f64>> {
+            let p = Vector3::new(f[0], f[1], f[2]) + direction(f[3], f[4]) / f[5];
+            Some(vec![p.x, p.y, p.z])
+        };
+        let Some(point) = to_point(&f) else { return };
+        let Some(j) = jacobian(&f, 3, to_point) else {
+            return;
+        };
+        let n = self.x.len();
+        // T maps the old state to the new: identity, with the feature's 6 rows replaced by J.
+        let mut t = DMatrix::zeros(n - 3, n);
+        for i in 0..offset {
+            t[(i, i)] = 1.0;
+        }
+        t.view_mut((offset, offset), (3, 6)).copy_from(&j);
+        for i in offset + 6..n {
+            t[(i - 3, i)] = 1.0;
+        }
+        let mut x = DVector::zeros(n - 3);
+        x.rows_mut(0, offset).copy_from(&self.x.rows(0, offset));
+        for (i, value) in point.iter().enumerate() {
+            x[offset + i] = *value;
+        }
+        x.rows_mut(offset + 3, n - offset - 6)
+            .copy_from(&self.x.rows(offset + 6, n - offset - 6));
+        self.p = &t * &self.p * t.transpose();
+        self.x = x;
+        self.kinds[index] = FeatureKind::Euclidean;
+        for later in &mut self.offsets[index + 1..] {
+            *later -= 3;
+        }
+    }
+
+    /// Removes feature `index` (later features move down by one).
+    pub fn remove_feature(&mut self, index: usize) {
+        let offset = self.offsets[index];
+        let size = self.kinds[index].size();
+        let n = self.x.len();
+        let keep: Vec<usize> = (0..n)
+            .filter(|&i| i < offset || i >= offset + size)
+            .collect();
+        self.x = DVector::from_iterator(keep.len(), keep.iter().map(|&i| self.x[i]));
+        self.p = DMatrix::from_fn(keep.len(), keep.len(), |r, c| self.p[(keep[r], keep[c])]);
+        self.kinds.remove(index);
+        self.offsets.remove(index);
+        for later in &mut self.offsets[index..] {
+            *later -= size;
+        }
+    }
+
+    /// The camera part of the covariance's position block, m².
+    pub fn position_covariance(&self) -> nalgebra::Matrix3<f64> {
+        self.p.fixed_view::<3, 3>(0, 0).clone_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> PinholeCamera {
+        PinholeCamera::ideal(500.0, 500.0, 320.0, 240.0, [640, 480])
+    }
+
+    #[test]
+    fn a_new_feature_projects_to_where_it_was_seen() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        let index = filter.add_feature([100.0, 300.0]).expect("ray");
+        let pixel = filter.pixel(index).expect("in front");
+        assert!((pixel[0] - 100.0).abs() < 1e-6 && (pixel[1] - 300.0).abs() < 1e-6);
+        assert_eq!(filter.state_size(), CAMERA_STATE + 6);
+    }
+
+    #[test]
+    fn sideways_motion_fixes_the_features_depths_up_to_scale() {
+        // A camera moving along x at 1 m/s sees points 4 m ahead; the filter, told nothing
+        // of the motion, learns it and the depths from the pixels alone, up to the scale a
+        // single camera cannot see (the velocity prior sets it; the test fits it).
+        let points = [
+            Vector3::new(-1.0, -0.5, 4.0),
+            Vector3::new(1.0, 0.3, 4.5),
+            Vector3::new(0.2, 0.8, 3.5),
+            Vector3::new(-0.6, 0.6, 5.0),
+            Vector3::new(0.8, -0.7, 4.2),
+            Vector3::new(0.0, 0.0, 6.0),
+        ];
+        let cam = camera();
+        let mut filter = MonoEkf::new(cam, MonoEkfOptions::default());
+        for p in &points {
+            let pixel = cam.project(p).expect("in front");
+            filter.add_feature(pixel);
+        }
+        let dt = 1.0 / 30.0;
+        for frame in 1..=60 {
+            filter.predict(dt);
+            let position = Vector3::new(frame as f64 * dt, 0.0, 0.0);
+            let measured: Vec<(usize, [f64; 2])> = points
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| Some((i, cam.project(&(p - position))?)))
+                .collect();
+            assert!(filter.update(&measured));
+            filter.convert_linear_features();
+        }
+        // The scale that best takes the estimated points to the true ones.
+        let estimates: Vec<Vector3<f64>> = (0..points.len())
+            .map(|i| filter.point_in_world(i).expect("a depth"))
+            .collect();
+        let scale = estimates
+            .iter()
+            .zip(&points)
+            .map(|(e, p)| e.dot(p))
+            .sum::<f64>()
+            / points.iter().map(|p| p.norm_squared()).sum::<f64>();
+        assert!(scale > 0.2, "scale {scale}");
+        for (e, p) in estimates.iter().zip(&points) {
+            assert!((e / scale - p).norm() < 0.1, "{e} / {scale} against {p}");
+        }
+        // The camera starts at rest in the filter, so the first frames lag the truth.
+        let travelled = filter.position_m() / scale;
+        assert!(
+            (travelled - Vector3::new(2.0, 0.0, 0.0)).norm() < 0.15,
+            "{travelled}"
+        );
+    }
+
+    #[test]
+    fn a_feature_with_a_certain_depth_becomes_a_euclidean_point_in_place() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        filter.add_feature([100.0, 100.0]);
+        let index = filter.add_feature([400.0, 300.0]).expect("ray");
+        filter.add_feature([200.0, 50.0]);
+        // Its depth known to a tenth of a percent.
+        let rho = filter.offsets[index] + 5;
+        for i in 0..filter.state_size() {
+            filter.p[(rho, i)] = 0.0;
+            filter.p[(i, rho)] = 0.0;
+        }
+        filter.p[(rho, rho)] = (1e-3 * filter.x[rho]).powi(2);
+        let point = filter.point_in_world(index).expect("a depth");
+        let pixels: Vec<_> = (0..3).map(|i| filter.pixel(i).expect("in front")).collect();
+        assert_eq!(filter.convert_linear_features(), 1);
+        assert_eq!(filter.kind(index), FeatureKind::Euclidean);
+        assert_eq!(filter.state_size(), CAMERA_STATE + 6 + 3 + 6);
+        assert!((filter.point_in_world(index).expect("a point") - point).norm() < 1e-9);
+        for (i, before) in pixels.iter().enumerate() {
+            let after = filter.pixel(i).expect("in front");
+            assert!(
+                (after[0] - before[0]).hypot(after[1] - before[1]) < 1e-6,
+                "feature {i}"
+            );
+        }
+    }
+
+    #[test]
+    fn removing_a_feature_keeps_the_others() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        for pixel in [[100.0, 100.0], [200.0, 200.0], [300.0, 300.0]] {
+            filter.add_feature(pixel);
+        }
+        filter.remove_feature(1);
+        assert_eq!(filter.num_features(), 2);
+        let pixel = filter.pixel(1).expect("in front");
+        assert!((pixel[0] - 300.0).abs() < 1e-6);
+    }
+}

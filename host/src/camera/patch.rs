@@ -1,0 +1,157 @@
+//! Image patches and their normalised cross-correlation search.
+//!
+//! A feature's appearance is the square patch around its first sighting. It is found again
+//! in a later image by normalised cross-correlation (NCC: the patches' correlation after
+//! removing their mean and scaling by their spread, so brightness and contrast changes do not
+//! matter) at every pixel inside the search region the filter predicts, and placed to a
+//! fraction of a pixel by fitting a parabola through the best score and its neighbours.
+
+use image::GrayImage;
+
+/// A patch, kept with zero mean and unit norm for the correlation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Patch {
+    half_px: u32,
+    /// Row-major, `(2 half + 1)²` values.
+    values: Vec<f32>,
+}
+
+impl Patch {
+    /// The patch of half size `half_px` centred on the pixel `centre`, or `None` when it does
+    /// not fit in the image or the image is flat there (nothing to correlate).
+    pub fn from_image(image: &GrayImage, centre: [i64; 2], half_px: u32) -> Option<Self> {
+        let values = sample(image, centre, half_px)?;
+        normalise(values).map(|values| Patch { half_px, values })
+    }
+
+    /// Half the side, pixels.
+    pub fn half_px(&self) -> u32 {
+        self.half_px
+    }
+
+    /// The NCC of this patch with the image's around `centre` (−1 to 1), or `None` where the
+    /// image's patch does not fit or is flat.
+    pub fn correlation(&self, image: &GrayImage, centre: [i64; 2]) -> Option<f32> {
+        let other = normalise(sample(image, centre, self.half_px)?)?;
+        Some(self.values.iter().zip(&other).map(|(a, b)| a * b).sum())
+    }
+}
+
+/// The image's values in the square of half size `half_px` around `centre`, row-major.
+fn sample(image: &GrayImage, centre: [i64; 2], half_px: u32) -> Option<Vec<f32>> {
+    let half = i64::from(half_px);
+    let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+    if centre[0] - half < 0
+        || centre[1] - half < 0
+        || centre[0] + half >= width
+        || centre[1] + half >= height
+    {
+        return None;
+    }
+    let side = (2 * half + 1) as usize;
+    let mut values = Vec::with_capacity(side * side);
+    let raw = image.as_raw();
+    for y in centre[1] - half..=centre[1] + half {
+        let row = (y * width) as usize;
+        for x in centre[0] - half..=centre[0] + half {
+            values.push(f32::from(raw[row + x as usize]));
+        }
+    }
+    Some(values)
+}
+
+/// `values` less their mean, scaled to unit norm; `None` when they are all but constant.
+fn normalise(mut values: Vec<f32>) -> Option<Vec<f32>> {
+    let mean = values.iter().sum::<f32>() / values.len() as f32;
+    values.iter_mut().for_each(|v| *v -= mean);
+    let norm = values.iter().map(|v| v * v).sum::<f32>().sqrt();
+    // Below about one grey level of spread per pixel there is no texture to match.
+    if norm < (values.len() as f32).sqrt() {
+        return None;
+    }
+    values.iter_mut().for_each(|v| *v /= norm);
+    Some(values)
+}
+
+/// The best match of `patch` among the pixels `inside` admits within `box_px` (inclusive
+/// min and max corners), refined to a fraction of a pixel, with its correlation.
+pub fn search(
+    patch: &Patch,
+    image: &GrayImage,
+    box_px: [[i64; 2]; 2],
+    inside: impl Fn([i64; 2]) -> bool,
+) -> Option<([f64; 2], f32)> {
+    let [min, max] = box_px;
+    let mut best: Option<([i64; 2], f32)> = None;
+    for y in min[1]..=max[1] {
+        for x in min[0]..=max[0] {
+            if !inside([x, y]) {
+                continue;
+            }
+            if let Some(score) = patch.correlation(image, [x, y])
+                && best.is_none_or(|(_, b)| score > b)
+            {
+                best = Some(([x, y], score));
+            }
+        }
+    }
+    let (at, score) = best?;
+    // A parabola through the neighbours on each axis.
+    let offset = |before: Option<f32>, after: Option<f32>| match (before, after) {
+        (Some(b), Some(a)) => {
+            let curvature = b - 2.0 * score + a;
+            if curvature < 0.0 {
+                f64::from(0.5 * (b - a) / curvature).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            }
+        }
+        _ => 0.0,
+    };
+    let dx = offset(
+        patch.correlation(image, [at[0] - 1, at[1]]),
+        patch.correlation(image, [at[0] + 1, at[1]]),
+    );
+    let dy = offset(
+        patch.correlation(image, [at[0], at[1] - 1]),
+        patch.correlation(image, [at[0], at[1] + 1]),
+    );
+    Some(([at[0] as f64 + dx, at[1] as f64 + dy], score))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A smooth blob pattern.
+    fn textured(width: u32, height: u32, shift: [f64; 2]) -> GrayImage {
+        GrayImage::from_fn(width, height, |x, y| {
+            let (x, y) = (f64::from(x) - shift[0], f64::from(y) - shift[1]);
+            let v = 128.0
+                + 60.0 * (x * 0.31).sin() * (y * 0.23).cos()
+                + 40.0 * (x * 0.07 + y * 0.11).sin();
+            image::Luma([v.clamp(0.0, 255.0) as u8])
+        })
+    }
+
+    #[test]
+    fn a_patch_is_found_where_the_image_moved_it() {
+        let first = textured(80, 60, [0.0, 0.0]);
+        let patch = Patch::from_image(&first, [40, 30], 5).expect("textured");
+        let moved = textured(80, 60, [3.0, -2.0]);
+        let (found, score) = search(&patch, &moved, [[30, 20], [50, 40]], |_| true).expect("found");
+        assert!(score > 0.95, "{score}");
+        assert!(
+            (found[0] - 43.0).abs() < 0.3 && (found[1] - 28.0).abs() < 0.3,
+            "{found:?}"
+        );
+    }
+
+    #[test]
+    fn a_flat_patch_or_one_off_the_image_is_refused() {
+        let flat = GrayImage::from_pixel(40, 40, image::Luma([90]));
+        assert!(Patch::from_image(&flat, [20, 20], 5).is_none());
+        let first = textured(80, 60, [0.0, 0.0]);
+        assert!(Patch::from_image(&first, [2, 30], 5).is_none());
+    }
+}
