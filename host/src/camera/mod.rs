@@ -3,11 +3,13 @@
 //!
 //! * [`pinhole`]: the camera model, with radial–tangential distortion.
 //! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
-//! * [`patch`]: feature patches and their correlation search.
+//! * [`patch`]: feature patches and their correlation search; [`appearance`]: a feature's
+//!   first sighting, warped to the view of the camera now.
 //! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
 //! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
 //! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
 
+pub mod appearance;
 pub mod mono_ekf;
 pub mod mono_slam;
 pub mod patch;

@@ -21,8 +21,9 @@
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
+use super::appearance::Appearance;
 use super::mono_ekf::{MonoEkf, MonoEkfOptions};
-use super::patch::{Patch, search};
+use super::patch::search;
 use super::pinhole::PinholeCamera;
 
 /// How the camera method searches, rejects and adds features.
@@ -69,12 +70,12 @@ impl Default for MonoSlamOptions {
             max_search_half_px: 60.0,
             ransac_inlier_px: 2.0,
             rescue_chi2: 5.99,
-            target_visible: 16,
-            max_new_per_frame: 4,
-            grid_cells: [4, 3],
+            target_visible: 25,
+            max_new_per_frame: 6,
+            grid_cells: [8, 6],
             fast_threshold: 20,
             min_attempts_to_delete: 10,
-            max_features: 60,
+            max_features: 100,
         }
     }
 }
@@ -82,7 +83,7 @@ impl Default for MonoSlamOptions {
 /// A feature's appearance and its record.
 #[derive(Clone, Debug)]
 struct Track {
-    patch: Patch,
+    appearance: Appearance,
     searched: u32,
     found: u32,
     last_seen_frame: usize,
@@ -235,9 +236,17 @@ impl MonoSlam {
                 (reach * s[(0, 0)].sqrt()).min(cap),
                 (reach * s[(1, 1)].sqrt()).min(cap),
             ];
+            let centre = prediction.pixel;
+            let Some(template) = self.tracks[index].appearance.template(
+                self.filter.camera(),
+                self.filter.orientation(),
+                centre,
+                self.options.patch_half_px,
+            ) else {
+                continue;
+            };
             searched += 1;
             self.tracks[index].searched += 1;
-            let centre = prediction.pixel;
             let box_px = [
                 [
                     (centre[0] - half[0]).floor() as i64,
@@ -253,7 +262,7 @@ impl MonoSlam {
                 let d = Vector2::new(p[0] as f64 - centre[0], p[1] as f64 - centre[1]);
                 (d.transpose() * s_inv * d)[(0, 0)] <= gate
             };
-            if let Some((pixel, score)) = search(&self.tracks[index].patch, image, box_px, inside)
+            if let Some((pixel, score)) = search(&template, image, box_px, inside)
                 && score >= self.options.min_correlation
             {
                 matches.push((index, pixel));
@@ -360,7 +369,7 @@ impl MonoSlam {
                 occupied[cell] = true;
             }
         }
-        let margin = i64::from(self.options.patch_half_px) + 1;
+        let margin = i64::from(2 * self.options.patch_half_px + 2) + 1;
         let mut best: Vec<Option<imageproc::corners::Corner>> = vec![None; occupied.len()];
         for corner in imageproc::corners::corners_fast9(image, self.options.fast_threshold) {
             let (x, y) = (i64::from(corner.x), i64::from(corner.y));
@@ -386,7 +395,11 @@ impl MonoSlam {
                 break;
             }
             let centre = [i64::from(corner.x), i64::from(corner.y)];
-            let Some(patch) = Patch::from_image(image, centre, self.options.patch_half_px) else {
+            // The crop reaches beyond the patch so that a warp turned by up to 45° or
+            // scaled by up to half stays inside it.
+            let crop_half = 2 * self.options.patch_half_px + 2;
+            let orientation = self.filter.orientation();
+            let Some(appearance) = Appearance::new(image, centre, crop_half, orientation) else {
                 continue;
             };
             if self
@@ -395,7 +408,7 @@ impl MonoSlam {
                 .is_some()
             {
                 self.tracks.push(Track {
-                    patch,
+                    appearance,
                     searched: 0,
                     found: 0,
                     last_seen_frame: self.frame,

@@ -24,6 +24,28 @@ impl Patch {
         normalise(values).map(|values| Patch { half_px, values })
     }
 
+    /// The patch of half size `half_px` from its values (row-major), or `None` when they are
+    /// flat or not `(2 half + 1)²`.
+    pub fn from_values(values: Vec<f32>, half_px: u32) -> Option<Self> {
+        let side = 2 * half_px as usize + 1;
+        if values.len() != side * side {
+            return None;
+        }
+        normalise(values).map(|values| Patch { half_px, values })
+    }
+
+    /// The NCC of two patches of one size (−1 to 1; 0 for patches of different sizes).
+    pub fn correlation_with(&self, other: &Patch) -> f32 {
+        if self.values.len() != other.values.len() {
+            return 0.0;
+        }
+        self.values
+            .iter()
+            .zip(&other.values)
+            .map(|(a, b)| a * b)
+            .sum()
+    }
+
     /// Half the side, pixels.
     pub fn half_px(&self) -> u32 {
         self.half_px
@@ -32,8 +54,33 @@ impl Patch {
     /// The NCC of this patch with the image's around `centre` (−1 to 1), or `None` where the
     /// image's patch does not fit or is flat.
     pub fn correlation(&self, image: &GrayImage, centre: [i64; 2]) -> Option<f32> {
-        let other = normalise(sample(image, centre, self.half_px)?)?;
-        Some(self.values.iter().zip(&other).map(|(a, b)| a * b).sum())
+        let half = i64::from(self.half_px);
+        let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+        if centre[0] - half < 0
+            || centre[1] - half < 0
+            || centre[0] + half >= width
+            || centre[1] + half >= height
+        {
+            return None;
+        }
+        // The template has zero mean, so the image patch's mean drops out of the product and
+        // only its spread is needed: one pass, nothing allocated.
+        let side = (2 * half + 1) as usize;
+        let raw = image.as_raw();
+        let (mut product, mut sum, mut squares) = (0f32, 0f32, 0f32);
+        for (row, template_row) in self.values.chunks_exact(side).enumerate() {
+            let start = ((centre[1] - half + row as i64) * width + centre[0] - half) as usize;
+            for (t, &v) in template_row.iter().zip(&raw[start..start + side]) {
+                let v = f32::from(v);
+                product += t * v;
+                sum += v;
+                squares += v * v;
+            }
+        }
+        let n = self.values.len() as f32;
+        let spread = (squares - sum * sum / n).max(0.0).sqrt();
+        // As in `normalise`: below about one grey level per pixel there is no texture.
+        (spread >= n.sqrt()).then(|| product / spread)
     }
 }
 

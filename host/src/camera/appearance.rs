@@ -1,0 +1,179 @@
+//! A feature's appearance as first seen, warped to how the camera sees it now.
+//!
+//! A patch taken at a feature's first sighting no longer looks the same once the camera has
+//! rolled or turned: correlated as it was, a feature seen rolled by 30° is not found. As in
+//! MonoSLAM, the patch is warped by the predicted change of view before the search. The
+//! warp here is the rotation's: each pixel of the template around the predicted pixel is
+//! taken back along its ray to the camera as it was at the first sighting (the camera model,
+//! distortion included, both ways) and sampled there, bilinearly, from a crop of the first
+//! image kept for it. The translation's part of the view change (a point coming closer
+//! grows) is left out: it is small for the distant points a single camera maps best, and
+//! would need the feature's surface normal.
+
+use image::GrayImage;
+use nalgebra::UnitQuaternion;
+
+use super::patch::Patch;
+use super::pinhole::PinholeCamera;
+
+/// The first sighting: a crop of the image around it and the camera's orientation then.
+#[derive(Clone, Debug)]
+pub struct Appearance {
+    /// The crop, row-major, `side × side`.
+    crop: Vec<f32>,
+    side: usize,
+    /// The first sighting's pixel in the full image, and the crop's corner pixel.
+    pixel: [f64; 2],
+    corner: [i64; 2],
+    /// `world_from_camera` at the first sighting.
+    orientation: UnitQuaternion<f64>,
+}
+
+impl Appearance {
+    /// Keeps the crop of `image` within `half_px` of `pixel` (integer), seen with the
+    /// camera at `orientation`; `None` when the crop does not fit in the image.
+    pub fn new(
+        image: &GrayImage,
+        pixel: [i64; 2],
+        half_px: u32,
+        orientation: UnitQuaternion<f64>,
+    ) -> Option<Self> {
+        let half = i64::from(half_px);
+        let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+        let corner = [pixel[0] - half, pixel[1] - half];
+        let side = (2 * half + 1) as usize;
+        if corner[0] < 0
+            || corner[1] < 0
+            || corner[0] + side as i64 > width
+            || corner[1] + side as i64 > height
+        {
+            return None;
+        }
+        let raw = image.as_raw();
+        let mut crop = Vec::with_capacity(side * side);
+        for y in corner[1]..corner[1] + side as i64 {
+            let row = (y * width) as usize;
+            for x in corner[0]..corner[0] + side as i64 {
+                crop.push(f32::from(raw[row + x as usize]));
+            }
+        }
+        Some(Appearance {
+            crop,
+            side,
+            pixel: [pixel[0] as f64, pixel[1] as f64],
+            corner,
+            orientation,
+        })
+    }
+
+    /// The crop's value at `pixel` of the first image, bilinearly; `None` outside the crop.
+    fn sample(&self, pixel: [f64; 2]) -> Option<f32> {
+        let x = pixel[0] - self.corner[0] as f64;
+        let y = pixel[1] - self.corner[1] as f64;
+        let last = (self.side - 1) as f64;
+        if !(0.0..last).contains(&x) || !(0.0..last).contains(&y) {
+            return None;
+        }
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+        let at = |c: usize, r: usize| self.crop[r * self.side + c];
+        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+        let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+        Some(top * (1.0 - fy) + bottom * fy)
+    }
+
+    /// The template of half size `half_px` the camera at `orientation` should see around
+    /// `predicted` (its pixel now); `None` where the warp leaves the crop or the template is
+    /// flat.
+    pub fn template(
+        &self,
+        camera: &PinholeCamera,
+        orientation: UnitQuaternion<f64>,
+        predicted: [f64; 2],
+        half_px: u32,
+    ) -> Option<Patch> {
+        // first_from_now: a ray in the camera now, in the camera at the first sighting.
+        let first_from_now = self.orientation.inverse() * orientation;
+        // The warp maps the predicted pixel's own ray near the first pixel; the remaining
+        // offset (the prediction's error in the first image) is removed so that the template
+        // is centred on the feature.
+        let map = |pixel: [f64; 2]| -> Option<[f64; 2]> {
+            let ray = camera.ray(pixel)?;
+            camera.project(&(first_from_now * ray))
+        };
+        let centre = map(predicted)?;
+        let shift = [self.pixel[0] - centre[0], self.pixel[1] - centre[1]];
+        let half = i64::from(half_px);
+        let mut values = Vec::with_capacity(((2 * half + 1) * (2 * half + 1)) as usize);
+        for dy in -half..=half {
+            for dx in -half..=half {
+                let p = map([predicted[0] + dx as f64, predicted[1] + dy as f64])?;
+                values.push(self.sample([p[0] + shift[0], p[1] + shift[1]])?);
+            }
+        }
+        Patch::from_values(values, half_px)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn textured(width: u32, height: u32) -> GrayImage {
+        GrayImage::from_fn(width, height, |x, y| {
+            let (x, y) = (f64::from(x), f64::from(y));
+            let v = 128.0
+                + 60.0 * (x * 0.31).sin() * (y * 0.23).cos()
+                + 40.0 * (x * 0.07 + y * 0.11).sin();
+            image::Luma([v.clamp(0.0, 255.0) as u8])
+        })
+    }
+
+    #[test]
+    fn without_a_change_of_view_the_template_is_the_patch() {
+        let camera = PinholeCamera::ideal(300.0, 300.0, 100.0, 80.0, [200, 160]);
+        let image = textured(200, 160);
+        let appearance =
+            Appearance::new(&image, [100, 80], 12, UnitQuaternion::identity()).expect("fits");
+        let template = appearance
+            .template(&camera, UnitQuaternion::identity(), [140.0, 20.0], 5)
+            .expect("inside");
+        let patch = Patch::from_image(&image, [100, 80], 5).expect("textured");
+        assert!(template.correlation_with(&patch) > 0.999);
+    }
+
+    #[test]
+    fn a_rolled_camera_sees_the_patch_rolled() {
+        // The camera rolls 30° about its axis: the feature at the image centre is seen
+        // turned by 30°, which the warp predicts.
+        let camera = PinholeCamera::ideal(300.0, 300.0, 100.0, 80.0, [200, 160]);
+        let image = textured(200, 160);
+        let roll =
+            UnitQuaternion::from_axis_angle(&nalgebra::Vector3::z_axis(), 30f64.to_radians());
+        let rolled = GrayImage::from_fn(200, 160, |x, y| {
+            // The rolled camera's pixel (x, y) sees the first camera's pixel at the inverse
+            // rotation about the centre.
+            let (dx, dy) = (f64::from(x) - 100.0, f64::from(y) - 80.0);
+            let (s, c) = 30f64.to_radians().sin_cos();
+            let (sx, sy) = (c * dx - s * dy + 100.0, s * dx + c * dy + 80.0);
+            let (sx, sy) = (
+                sx.round().clamp(0.0, 199.0) as u32,
+                sy.round().clamp(0.0, 159.0) as u32,
+            );
+            *image.get_pixel(sx, sy)
+        });
+        let appearance =
+            Appearance::new(&image, [100, 80], 12, UnitQuaternion::identity()).expect("fits");
+        let warped = appearance
+            .template(&camera, roll, [100.0, 80.0], 5)
+            .expect("inside");
+        let seen = Patch::from_image(&rolled, [100, 80], 5).expect("textured");
+        let unwarped = Patch::from_image(&image, [100, 80], 5).expect("textured");
+        let with_warp = warped.correlation_with(&seen);
+        let without = unwarped.correlation_with(&seen);
+        assert!(
+            with_warp > 0.95 && with_warp > without + 0.1,
+            "{with_warp} against {without}"
+        );
+    }
+}
