@@ -65,6 +65,9 @@ pub struct TruePose {
     pub orientation: UnitQuaternion<f64>,
 }
 
+/// A camera's position (m) and `world_from_camera`.
+pub type PoseInWorld = (Vector3<f64>, UnitQuaternion<f64>);
+
 /// A sequence folder, read. See the [module documentation](self).
 #[derive(Clone, Debug)]
 pub struct CameraSequence {
@@ -104,21 +107,43 @@ impl CameraSequence {
     }
 }
 
+/// The largest side of a frame the readers decode, px.
+pub const MAX_FRAME_SIDE_PX: u32 = 8192;
+
 /// Reads `path` as an 8-bit grey image.
 ///
 /// # Errors
 /// When the file cannot be read or decoded.
 pub fn load_gray(path: &Path) -> Result<GrayImage, SequenceError> {
-    let image = image::ImageReader::open(path)
+    let bytes = std::fs::read(path).map_err(|source| SequenceError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    decode_gray(&bytes, path)
+}
+
+/// Decodes `bytes`, the contents of the image file `path`, as 8-bit grey.
+///
+/// # Errors
+/// When they are not an image of a supported format; the error names `path`.
+pub fn decode_gray(bytes: &[u8], path: &Path) -> Result<GrayImage, SequenceError> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
         .map_err(|source| SequenceError::Io {
             path: path.to_path_buf(),
             source,
-        })?
-        .decode()
-        .map_err(|source| SequenceError::Image {
-            path: path.to_path_buf(),
-            source,
         })?;
+    // A camera frame is at most 8K on a side and its decoding needs at most 256 MiB: a
+    // header that claims more is refused before anything is allocated.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_FRAME_SIDE_PX);
+    limits.max_image_height = Some(MAX_FRAME_SIDE_PX);
+    limits.max_alloc = Some(256 * 1024 * 1024);
+    reader.limits(limits);
+    let image = reader.decode().map_err(|source| SequenceError::Image {
+        path: path.to_path_buf(),
+        source,
+    })?;
     Ok(image.into_luma8())
 }
 
@@ -182,54 +207,143 @@ fn parse_error(path: &Path, line: usize, what: impl Into<String>) -> SequenceErr
     }
 }
 
-fn open_kitti(dir: &Path) -> Result<CameraSequence, SequenceError> {
-    let calib_path = dir.join("calib.txt");
-    let calib = read(&calib_path)?;
-    let (line, p0) = data_lines(&calib)
+/// The intrinsics `[fx, fy, cx, cy]` of the `P0:` line of a KITTI `calib.txt`.
+///
+/// # Errors
+/// No `P0:` line, or one without 12 finite numbers; the error names `path` and the line.
+pub fn parse_kitti_calibration(text: &str, path: &Path) -> Result<[f64; 4], SequenceError> {
+    let (line, p0) = data_lines(text)
         .find(|(_, l)| l.starts_with("P0:"))
-        .ok_or_else(|| parse_error(&calib_path, 1, "no `P0:` line"))?;
+        .ok_or_else(|| parse_error(path, 1, "no `P0:` line"))?;
     let fields: Vec<&str> = p0["P0:".len()..].split_whitespace().collect();
     if fields.len() != 12 {
-        return Err(parse_error(&calib_path, line, "P0 needs 12 numbers"));
+        return Err(parse_error(path, line, "P0 needs 12 numbers"));
     }
-    let p = numbers(&calib_path, line, &fields)?;
+    let p = numbers(path, line, &fields)?;
+    Ok([p[0], p[5], p[2], p[6]])
+}
+
+/// The times of a KITTI `times.txt`, seconds.
+///
+/// # Errors
+/// A line that is not one finite number; the error names `path` and the line.
+pub fn parse_times(text: &str, path: &Path) -> Result<Vec<f64>, SequenceError> {
+    data_lines(text)
+        .map(|(line, row)| Ok(row_of(path, line, row, "t")?[0]))
+        .collect()
+}
+
+/// The poses of a KITTI `poses.txt`: position and `world_from_camera` per line.
+///
+/// # Errors
+/// A line without 12 finite numbers; the error names `path` and the line.
+pub fn parse_kitti_poses(text: &str, path: &Path) -> Result<Vec<PoseInWorld>, SequenceError> {
+    data_lines(text)
+        .map(|(line, row)| {
+            let m = row_of(
+                path,
+                line,
+                row,
+                "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz",
+            )?;
+            let rotation = Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+            // Orthonormal with determinant 1, to the precision the files are written with;
+            // anything else is refused rather than fitted.
+            let orthonormal = (rotation * rotation.transpose() - Matrix3::identity()).amax();
+            if !(orthonormal < 1e-3 && (rotation.determinant() - 1.0).abs() < 1e-3) {
+                return Err(parse_error(path, line, "not a rotation matrix"));
+            }
+            let orientation =
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rotation));
+            Ok((Vector3::new(m[3], m[7], m[11]), orientation))
+        })
+        .collect()
+}
+
+/// The calibration line of a TUM `calib.txt`: `fx fy cx cy k1 k2 p1 p2 k3`.
+///
+/// # Errors
+/// No such line; the error names `path` and the line.
+pub fn parse_tum_calibration(text: &str, path: &Path) -> Result<[f64; 9], SequenceError> {
+    let (line, row) = data_lines(text)
+        .next()
+        .ok_or_else(|| parse_error(path, 1, "no calibration line"))?;
+    let c = row_of(path, line, row, "fx fy cx cy k1 k2 p1 p2 k3")?;
+    let mut calibration = [0.0; 9];
+    calibration.copy_from_slice(&c);
+    Ok(calibration)
+}
+
+/// The frames of a TUM `rgb.txt`: time and file, per line.
+///
+/// # Errors
+/// A line that is not `time file`; the error names `path` and the line.
+pub fn parse_frame_list(text: &str, path: &Path) -> Result<Vec<(f64, String)>, SequenceError> {
+    data_lines(text)
+        .map(|(line, row)| {
+            let fields: Vec<&str> = row.split_whitespace().collect();
+            let [time, file] = fields[..] else {
+                return Err(parse_error(path, line, "expected `time file`"));
+            };
+            Ok((numbers(path, line, &[time])?[0], file.to_string()))
+        })
+        .collect()
+}
+
+/// The poses of a TUM `groundtruth.txt` (`t tx ty tz qx qy qz qw`).
+///
+/// # Errors
+/// A line without 8 finite numbers, or whose quaternion is not of unit length (to 1 %);
+/// the error names `path` and the line.
+pub fn parse_tum_truth(text: &str, path: &Path) -> Result<Vec<TruePose>, SequenceError> {
+    data_lines(text)
+        .map(|(line, row)| {
+            let v = row_of(path, line, row, "t tx ty tz qx qy qz qw")?;
+            let q = nalgebra::Quaternion::new(v[7], v[4], v[5], v[6]);
+            let deviation = (q.norm() - 1.0).abs();
+            if deviation.is_nan() || deviation > 0.01 {
+                return Err(parse_error(
+                    path,
+                    line,
+                    "the quaternion is not of unit length",
+                ));
+            }
+            Ok(TruePose {
+                time_s: v[0],
+                position_m: Vector3::new(v[1], v[2], v[3]),
+                orientation: UnitQuaternion::from_quaternion(q),
+            })
+        })
+        .collect()
+}
+
+fn open_kitti(dir: &Path) -> Result<CameraSequence, SequenceError> {
+    let calib_path = dir.join("calib.txt");
+    let [fx, fy, cx, cy] = parse_kitti_calibration(&read(&calib_path)?, &calib_path)?;
     let times_path = dir.join("times.txt");
-    let times = read(&times_path)?;
-    let mut frames = Vec::new();
-    for (line, text) in data_lines(&times) {
-        let time_s = numbers(&times_path, line, &[text])?[0];
-        frames.push(FrameFile {
+    let frames: Vec<FrameFile> = parse_times(&read(&times_path)?, &times_path)?
+        .into_iter()
+        .enumerate()
+        .map(|(index, time_s)| FrameFile {
             time_s,
-            path: dir.join("image_0").join(format!("{:06}.png", frames.len())),
-        });
-    }
+            path: dir.join("image_0").join(format!("{index:06}.png")),
+        })
+        .collect();
     let (width_px, height_px) = first_image_size(dir, &frames)?;
-    let camera = PinholeCamera::ideal(p[0], p[5], p[2], p[6], [width_px, height_px]);
+    let camera = PinholeCamera::ideal(fx, fy, cx, cy, [width_px, height_px]);
     let poses_path = dir.join("poses.txt");
     let mut truth = Vec::new();
     if poses_path.is_file() {
-        let poses = read(&poses_path)?;
-        for (index, (line, text)) in data_lines(&poses).enumerate() {
-            let fields: Vec<&str> = text.split_whitespace().collect();
-            if fields.len() != 12 {
-                return Err(parse_error(&poses_path, line, "a pose needs 12 numbers"));
-            }
-            let m = numbers(&poses_path, line, &fields)?;
-            let Some(frame) = frames.get(index) else {
-                break;
-            };
-            let rotation = Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
-            truth.push(TruePose {
+        let poses = parse_kitti_poses(&read(&poses_path)?, &poses_path)?;
+        truth = poses
+            .into_iter()
+            .zip(&frames)
+            .map(|((position_m, orientation), frame)| TruePose {
                 time_s: frame.time_s,
-                position_m: Vector3::new(m[3], m[7], m[11]),
-                orientation: UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_eps(
-                    &rotation,
-                    1e-9,
-                    50,
-                    Rotation3::identity(),
-                )),
-            });
-        }
+                position_m,
+                orientation,
+            })
+            .collect();
     }
     Ok(CameraSequence {
         layout: SequenceLayout::Kitti,
@@ -241,24 +355,15 @@ fn open_kitti(dir: &Path) -> Result<CameraSequence, SequenceError> {
 
 fn open_tum(dir: &Path) -> Result<CameraSequence, SequenceError> {
     let calib_path = dir.join("calib.txt");
-    let calib = read(&calib_path)?;
-    let (line, text) = data_lines(&calib)
-        .next()
-        .ok_or_else(|| parse_error(&calib_path, 1, "no calibration line"))?;
-    let c = row_of(&calib_path, line, text, "fx fy cx cy k1 k2 p1 p2 k3")?;
+    let c = parse_tum_calibration(&read(&calib_path)?, &calib_path)?;
     let list_path = dir.join("rgb.txt");
-    let list = read(&list_path)?;
-    let mut frames = Vec::new();
-    for (line, text) in data_lines(&list) {
-        let fields: Vec<&str> = text.split_whitespace().collect();
-        let [time, file] = fields[..] else {
-            return Err(parse_error(&list_path, line, "expected `time file`"));
-        };
-        frames.push(FrameFile {
-            time_s: numbers(&list_path, line, &[time])?[0],
+    let frames: Vec<FrameFile> = parse_frame_list(&read(&list_path)?, &list_path)?
+        .into_iter()
+        .map(|(time_s, file)| FrameFile {
+            time_s,
             path: dir.join(file),
-        });
-    }
+        })
+        .collect();
     let (width_px, height_px) = first_image_size(dir, &frames)?;
     let camera = PinholeCamera {
         radial: [c[4], c[5], c[8]],
@@ -266,20 +371,11 @@ fn open_tum(dir: &Path) -> Result<CameraSequence, SequenceError> {
         ..PinholeCamera::ideal(c[0], c[1], c[2], c[3], [width_px, height_px])
     };
     let truth_path = dir.join("groundtruth.txt");
-    let mut truth = Vec::new();
-    if truth_path.is_file() {
-        let text = read(&truth_path)?;
-        for (line, row) in data_lines(&text) {
-            let v = row_of(&truth_path, line, row, "t tx ty tz qx qy qz qw")?;
-            truth.push(TruePose {
-                time_s: v[0],
-                position_m: Vector3::new(v[1], v[2], v[3]),
-                orientation: UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                    v[7], v[4], v[5], v[6],
-                )),
-            });
-        }
-    }
+    let truth = if truth_path.is_file() {
+        parse_tum_truth(&read(&truth_path)?, &truth_path)?
+    } else {
+        Vec::new()
+    };
     Ok(CameraSequence {
         layout: SequenceLayout::Tum,
         camera,
@@ -297,6 +393,37 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let error = CameraSequence::open(dir.path()).expect_err("no layout");
         assert!(error.to_string().contains("not a KITTI"), "{error}");
+    }
+
+    #[test]
+    fn a_pose_that_is_no_rotation_is_refused_at_once() {
+        // Found by the `camera_sequence` fuzz target: fitting a rotation to this matrix
+        // did not finish.
+        let bytes = include_bytes!(
+            "../../fuzz/regressions/camera_sequence/timeout-e591d3baa9881d9b8ea95f183fb324f7ca028381"
+        );
+        let text = String::from_utf8_lossy(bytes);
+        let error = parse_kitti_poses(&text, Path::new("poses.txt")).expect_err("no rotation");
+        assert!(error.to_string().contains("poses.txt:"), "{error}");
+        let text = "2 0 0 0 0 1 0 0 0 0 1 0\n";
+        let error = parse_kitti_poses(text, Path::new("poses.txt")).expect_err("scaled");
+        assert!(
+            error.to_string().contains("not a rotation matrix"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_pose_without_a_unit_quaternion_is_refused() {
+        let text = "# t tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 0\n";
+        let error = parse_tum_truth(text, Path::new("groundtruth.txt")).expect_err("zero");
+        assert!(error.to_string().contains("groundtruth.txt:3"), "{error}");
+    }
+
+    #[test]
+    fn a_frame_that_is_no_image_names_its_file() {
+        let error = decode_gray(b"\x89PNG not really", Path::new("000001.png")).expect_err("bad");
+        assert!(error.to_string().contains("000001.png"), "{error}");
     }
 
     #[test]
