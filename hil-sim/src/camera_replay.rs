@@ -144,8 +144,9 @@ pub fn replay_camera(
 
     let trajectory_path = options.out.join("trajectory.tum");
     write_trajectory(&trajectory_path, &reports).map_err(write_error(&trajectory_path))?;
+    let map_points = slam.map_points();
     let map_path = options.out.join("map.ply");
-    write_ply(&map_path, &slam.map_points()).map_err(write_error(&map_path))?;
+    write_ply(&map_path, &map_points).map_err(write_error(&map_path))?;
     let tracks_path = options.out.join("tracks.png");
     stack(&pictures)
         .save(&tracks_path)
@@ -172,7 +173,7 @@ pub fn replay_camera(
         features_deleted: stats.deleted,
         features_converted_to_euclidean: stats.converted_to_euclidean,
         matches_rejected: stats.rejected_matches,
-        map_points: slam.map_points().len(),
+        map_points: map_points.len(),
         error,
     };
     let summary_path = options.out.join("summary.json");

@@ -13,7 +13,7 @@
 use image::GrayImage;
 use nalgebra::UnitQuaternion;
 
-use super::patch::Patch;
+use super::patch::{Patch, sample};
 use super::pinhole::PinholeCamera;
 
 /// The first sighting: a crop of the image around it and the camera's orientation then.
@@ -38,30 +38,13 @@ impl Appearance {
         half_px: u32,
         orientation: UnitQuaternion<f64>,
     ) -> Option<Self> {
+        let crop = sample(image, pixel, half_px)?;
         let half = i64::from(half_px);
-        let (width, height) = (i64::from(image.width()), i64::from(image.height()));
-        let corner = [pixel[0] - half, pixel[1] - half];
-        let side = (2 * half + 1) as usize;
-        if corner[0] < 0
-            || corner[1] < 0
-            || corner[0] + side as i64 > width
-            || corner[1] + side as i64 > height
-        {
-            return None;
-        }
-        let raw = image.as_raw();
-        let mut crop = Vec::with_capacity(side * side);
-        for y in corner[1]..corner[1] + side as i64 {
-            let row = (y * width) as usize;
-            for x in corner[0]..corner[0] + side as i64 {
-                crop.push(f32::from(raw[row + x as usize]));
-            }
-        }
         Some(Appearance {
             crop,
-            side,
+            side: (2 * half + 1) as usize,
             pixel: [pixel[0] as f64, pixel[1] as f64],
-            corner,
+            corner: [pixel[0] - half, pixel[1] - half],
             orientation,
         })
     }

@@ -22,7 +22,7 @@ use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
 use super::appearance::Appearance;
-use super::mono_ekf::{MonoEkf, MonoEkfOptions};
+use super::mono_ekf::{MonoEkf, MonoEkfOptions, Prediction};
 use super::patch::search;
 use super::pinhole::PinholeCamera;
 
@@ -182,8 +182,10 @@ impl MonoSlam {
             self.filter.predict(time_s - last);
         }
         self.last_time_s = Some(time_s);
-        let (searched, matches) = self.search(image);
-        let measured = self.measure(&matches);
+        let (searched, found) = self.search(image);
+        let matches: Vec<Match> = found.iter().map(|(m, _)| *m).collect();
+        let predictions: Vec<Prediction> = found.into_iter().map(|(_, p)| p).collect();
+        let measured = self.measure(&matches, &predictions);
         for &(index, _) in &measured {
             self.tracks[index].found += 1;
             self.tracks[index].last_seen_frame = self.frame;
@@ -214,7 +216,9 @@ impl MonoSlam {
     }
 
     /// Active search: every feature predicted in view, in its innovation ellipse.
-    fn search(&mut self, image: &GrayImage) -> (usize, Vec<Match>) {
+    /// Returns how many features were searched for, and each match with the prediction it
+    /// was searched at (the state has not changed since, so RANSAC reuses it).
+    fn search(&mut self, image: &GrayImage) -> (usize, Vec<(Match, Prediction)>) {
         let margin = f64::from(self.options.patch_half_px);
         let mut searched = 0;
         let mut matches = Vec::new();
@@ -265,24 +269,17 @@ impl MonoSlam {
             if let Some((pixel, score)) = search(&template, image, box_px, inside)
                 && score >= self.options.min_correlation
             {
-                matches.push((index, pixel));
+                matches.push(((index, pixel), prediction));
             }
         }
         (searched, matches)
     }
 
-    /// 1-point RANSAC over `matches`, the supporters' update and the rescue. Returns the
-    /// matches that updated the filter.
-    fn measure(&mut self, matches: &[Match]) -> Vec<Match> {
-        let predictions: Vec<_> = matches
-            .iter()
-            .map(|&(index, _)| self.filter.predict_measurement(index))
-            .collect();
+    /// 1-point RANSAC over `matches` (each with its `predictions` entry), the supporters'
+    /// update and the rescue. Returns the matches that updated the filter.
+    fn measure(&mut self, matches: &[Match], predictions: &[Prediction]) -> Vec<Match> {
         let mut best_support: Vec<Match> = Vec::new();
-        for (k, &(index, pixel)) in matches.iter().enumerate() {
-            let Some(prediction) = &predictions[k] else {
-                continue;
-            };
+        for (&(index, pixel), prediction) in matches.iter().zip(predictions) {
             let Some(x) = self.filter.hypothesis(index, prediction, pixel) else {
                 continue;
             };

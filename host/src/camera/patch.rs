@@ -54,15 +54,11 @@ impl Patch {
     /// The NCC of this patch with the image's around `centre` (−1 to 1), or `None` where the
     /// image's patch does not fit or is flat.
     pub fn correlation(&self, image: &GrayImage, centre: [i64; 2]) -> Option<f32> {
-        let half = i64::from(self.half_px);
-        let (width, height) = (i64::from(image.width()), i64::from(image.height()));
-        if centre[0] - half < 0
-            || centre[1] - half < 0
-            || centre[0] + half >= width
-            || centre[1] + half >= height
-        {
+        if !fits(image, centre, self.half_px) {
             return None;
         }
+        let half = i64::from(self.half_px);
+        let width = i64::from(image.width());
         // The template has zero mean, so the image patch's mean drops out of the product and
         // only its spread is needed: one pass, nothing allocated.
         let side = (2 * half + 1) as usize;
@@ -84,17 +80,22 @@ impl Patch {
     }
 }
 
-/// The image's values in the square of half size `half_px` around `centre`, row-major.
-fn sample(image: &GrayImage, centre: [i64; 2], half_px: u32) -> Option<Vec<f32>> {
+/// Whether the square of half size `half_px` around `centre` lies inside the image.
+fn fits(image: &GrayImage, centre: [i64; 2], half_px: u32) -> bool {
     let half = i64::from(half_px);
-    let (width, height) = (i64::from(image.width()), i64::from(image.height()));
-    if centre[0] - half < 0
-        || centre[1] - half < 0
-        || centre[0] + half >= width
-        || centre[1] + half >= height
-    {
+    centre[0] - half >= 0
+        && centre[1] - half >= 0
+        && centre[0] + half < i64::from(image.width())
+        && centre[1] + half < i64::from(image.height())
+}
+
+/// The image's values in the square of half size `half_px` around `centre`, row-major.
+pub(super) fn sample(image: &GrayImage, centre: [i64; 2], half_px: u32) -> Option<Vec<f32>> {
+    if !fits(image, centre, half_px) {
         return None;
     }
+    let half = i64::from(half_px);
+    let width = i64::from(image.width());
     let side = (2 * half + 1) as usize;
     let mut values = Vec::with_capacity(side * side);
     let raw = image.as_raw();
