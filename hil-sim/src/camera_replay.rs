@@ -44,6 +44,10 @@ pub struct CameraReplaySummary {
     pub features_converted_to_euclidean: usize,
     /// Matches that 1-point RANSAC and the rescue refused.
     pub matches_rejected: usize,
+    /// Features deleted as moving: matched, but refused by the consensus frame after frame.
+    pub features_rejected_as_moving: usize,
+    /// Corners not taken as features because they moved on their own between two frames.
+    pub corners_rejected_as_moving: usize,
     /// Features in the final map.
     pub map_points: usize,
     /// Against the folder's ground truth, after the best similarity transform.
@@ -173,6 +177,8 @@ pub fn replay_camera(
         features_deleted: stats.deleted,
         features_converted_to_euclidean: stats.converted_to_euclidean,
         matches_rejected: stats.rejected_matches,
+        features_rejected_as_moving: stats.features_rejected_as_moving,
+        corners_rejected_as_moving: stats.corners_rejected_as_moving,
         map_points: map_points.len(),
         error,
     };
@@ -240,7 +246,8 @@ fn write_ply(path: &Path, points: &[Vector3<f64>]) -> io::Result<()> {
     out.flush()
 }
 
-/// The frame with each feature in view: its predicted pixel and its 3σ search ellipse.
+/// The frame with each feature in view: its predicted pixel and its 3σ search ellipse (red),
+/// and each corner found moving on its own, with the way it came (blue).
 fn draw_tracks(image: &GrayImage, slam: &MonoSlam) -> RgbImage {
     let mut picture = RgbImage::from_fn(image.width(), image.height(), |x, y| {
         let v = image.get_pixel(x, y)[0];
@@ -273,6 +280,21 @@ fn draw_tracks(image: &GrayImage, slam: &MonoSlam) -> RgbImage {
         for pair in points.windows(2) {
             imageproc::drawing::draw_line_segment_mut(&mut picture, pair[0], pair[1], colour);
         }
+    }
+    let blue = Rgb([40, 120, 255]);
+    for &(now, before) in slam.moving_corners() {
+        let (x, y) = (now[0].round() as i32, now[1].round() as i32);
+        imageproc::drawing::draw_hollow_rect_mut(
+            &mut picture,
+            imageproc::rect::Rect::at(x - 4, y - 4).of_size(9, 9),
+            blue,
+        );
+        imageproc::drawing::draw_line_segment_mut(
+            &mut picture,
+            (now[0] as f32, now[1] as f32),
+            (before[0] as f32, before[1] as f32),
+            blue,
+        );
     }
     picture
 }

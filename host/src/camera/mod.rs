@@ -7,11 +7,13 @@
 //!   first sighting, warped to the view of the camera now.
 //! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
 //! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
+//! * [`motion_segmentation`]: points that move on their own, kept out of the map.
 //! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
 
 pub mod appearance;
 pub mod mono_ekf;
 pub mod mono_slam;
+pub mod motion_segmentation;
 pub mod patch;
 pub mod pinhole;
 pub mod sequence;

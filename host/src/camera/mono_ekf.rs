@@ -558,6 +558,21 @@ impl MonoEkf {
         }
     }
 
+    /// The options the filter was made with.
+    pub fn options(&self) -> &MonoEkfOptions {
+        &self.options
+    }
+
+    /// The covariance of the camera's linear velocity (world frame), (m/s)².
+    pub fn velocity_covariance(&self) -> nalgebra::Matrix3<f64> {
+        self.p.fixed_view::<3, 3>(7, 7).clone_owned()
+    }
+
+    /// The covariance of the camera's angular velocity (camera frame), (rad/s)².
+    pub fn angular_velocity_covariance(&self) -> nalgebra::Matrix3<f64> {
+        self.p.fixed_view::<3, 3>(10, 10).clone_owned()
+    }
+
     /// The camera part of the covariance's position block, m².
     pub fn position_covariance(&self) -> nalgebra::Matrix3<f64> {
         self.p.fixed_view::<3, 3>(0, 0).clone_owned()

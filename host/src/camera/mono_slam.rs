@@ -17,12 +17,23 @@
 //! corners (Rosten and Drummond 2006, via `imageproc`) in the cells of a coarse image grid
 //! that hold no feature. Inverse-depth features whose depth is well determined become
 //! Euclidean points.
+//!
+//! Moving objects are kept out of the map twice over. A new feature's corner is first looked
+//! for in the previous frame ([`super::motion_segmentation`]): found off the epipolar segment
+//! the camera's estimated motion allows it, it moves on its own and is not taken. And each
+//! feature's match is tested the same way against its match in the frame before: a feature
+//! off its epipolar segment in [`MonoSlamOptions::max_off_segment_in_a_row`] frames in a row
+//! (at the band's 99 %, three in a row happen to a static point once in a million) is deleted
+//! as moving.
 
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
 use super::appearance::Appearance;
 use super::mono_ekf::{MonoEkf, MonoEkfOptions, Prediction};
+use super::motion_segmentation::{
+    self, FrameMotion, MotionSegmentationOptions, PointMotion, classify, distance_from_segment,
+};
 use super::patch::search;
 use super::pinhole::PinholeCamera;
 
@@ -58,6 +69,11 @@ pub struct MonoSlamOptions {
     pub min_attempts_to_delete: u32,
     /// At most this many features in the state; the longest unseen go first.
     pub max_features: usize,
+    /// A feature whose match leaves the epipolar segment of its match in the frame before in
+    /// this many frames in a row is deleted as moving.
+    pub max_off_segment_in_a_row: u32,
+    /// How new features' corners are tested for motion of their own.
+    pub motion_segmentation: MotionSegmentationOptions,
 }
 
 impl Default for MonoSlamOptions {
@@ -76,6 +92,8 @@ impl Default for MonoSlamOptions {
             fast_threshold: 20,
             min_attempts_to_delete: 10,
             max_features: 100,
+            max_off_segment_in_a_row: 3,
+            motion_segmentation: MotionSegmentationOptions::default(),
         }
     }
 }
@@ -87,6 +105,19 @@ struct Track {
     searched: u32,
     found: u32,
     last_seen_frame: usize,
+    /// The last frame it was matched in, and where.
+    last_match: Option<(usize, [f64; 2])>,
+    /// Consecutive frames in which its match left the epipolar segment of the one before.
+    off_segment_in_a_row: u32,
+}
+
+/// The frame before, for motion segmentation.
+#[derive(Clone, Debug)]
+struct PreviousFrame {
+    image: GrayImage,
+    time_s: f64,
+    position: Vector3<f64>,
+    orientation: UnitQuaternion<f64>,
 }
 
 /// What one frame did.
@@ -105,6 +136,10 @@ pub struct FrameReport {
     pub measured: usize,
     pub added: usize,
     pub deleted: usize,
+    /// Features deleted as moving (their matches refused frame after frame).
+    pub deleted_as_moving: usize,
+    /// Corners not taken as features because they moved on their own.
+    pub corners_moving: usize,
 }
 
 /// Whole-run counts.
@@ -117,7 +152,15 @@ pub struct MonoSlamStats {
     pub converted_to_euclidean: usize,
     /// Matches 1-point RANSAC and the rescue refused.
     pub rejected_matches: usize,
+    /// Features deleted as moving: matched but refused by the consensus frame after frame.
+    pub features_rejected_as_moving: usize,
+    /// Corners not taken as new features because they moved on their own.
+    pub corners_rejected_as_moving: usize,
 }
+
+/// The motion tests need a consensus to test against: at least this many matches that
+/// updated the filter, and as many compared with the frame before.
+const MIN_CONSENSUS: usize = 8;
 
 /// A match: feature, where it was found.
 type Match = (usize, [f64; 2]);
@@ -129,6 +172,9 @@ pub struct MonoSlam {
     filter: MonoEkf,
     tracks: Vec<Track>,
     last_time_s: Option<f64>,
+    previous: Option<PreviousFrame>,
+    /// The corners found moving in the last frame: where now, where before.
+    moving_corners: Vec<([f64; 2], [f64; 2])>,
     frame: usize,
     stats: MonoSlamStats,
 }
@@ -141,6 +187,8 @@ impl MonoSlam {
             options,
             tracks: Vec::new(),
             last_time_s: None,
+            previous: None,
+            moving_corners: Vec::new(),
             frame: 0,
             stats: MonoSlamStats::default(),
         }
@@ -176,6 +224,12 @@ impl MonoSlam {
             .collect()
     }
 
+    /// The corners found moving in the last frame, each where it is now and where it was in
+    /// the frame before.
+    pub fn moving_corners(&self) -> &[([f64; 2], [f64; 2])] {
+        &self.moving_corners
+    }
+
     /// Processes the frame taken at `time_s`.
     pub fn process(&mut self, time_s: f64, image: &GrayImage) -> FrameReport {
         if let Some(last) = self.last_time_s {
@@ -183,8 +237,9 @@ impl MonoSlam {
         }
         self.last_time_s = Some(time_s);
         let (searched, found) = self.search(image);
-        let matches: Vec<Match> = found.iter().map(|(m, _)| *m).collect();
-        let predictions: Vec<Prediction> = found.into_iter().map(|(_, p)| p).collect();
+        let matches: Vec<Match> = found.iter().map(|(m, _, _)| *m).collect();
+        let correlations: Vec<f32> = found.iter().map(|(_, _, c)| *c).collect();
+        let predictions: Vec<Prediction> = found.into_iter().map(|(_, p, _)| p).collect();
         let measured = self.measure(&matches, &predictions);
         for &(index, _) in &measured {
             self.tracks[index].found += 1;
@@ -192,12 +247,35 @@ impl MonoSlam {
         }
         self.stats.rejected_matches += matches.len() - measured.len();
         self.stats.converted_to_euclidean += self.filter.convert_linear_features();
-        let deleted = self.delete_poor_features();
+        let previous = self.previous.take();
+        let motion = previous
+            .as_ref()
+            .map(|p| (self.frame_motion(p, time_s), &p.image));
+        let band = motion.as_ref().and_then(|(motion, _)| {
+            self.test_feature_motion(&matches, &correlations, &measured, motion)
+        });
+        for &(index, pixel) in &matches {
+            self.tracks[index].last_match = Some((self.frame, pixel));
+        }
+        let (deleted, deleted_as_moving) = self.delete_poor_features();
+        self.moving_corners.clear();
         let added = if measured.len() < self.options.target_visible {
-            self.add_features(image)
+            let tested = motion
+                .zip(band)
+                .map(|((m, previous), band)| (m, previous, band));
+            self.add_features(image, tested)
         } else {
             0
         };
+        let corners_moving = self.moving_corners.len();
+        self.stats.features_rejected_as_moving += deleted_as_moving;
+        self.stats.corners_rejected_as_moving += corners_moving;
+        self.previous = Some(PreviousFrame {
+            image: image.clone(),
+            time_s,
+            position: self.filter.position_m(),
+            orientation: self.filter.orientation(),
+        });
         self.stats.frames += 1;
         self.stats.measured += measured.len();
         self.stats.added += added;
@@ -212,13 +290,97 @@ impl MonoSlam {
             measured: measured.len(),
             added,
             deleted,
+            deleted_as_moving,
+            corners_moving,
+        }
+    }
+
+    /// The per-feature test against moving objects: each match is compared with the
+    /// feature's match in the frame before, through the camera's motion between them.
+    /// Returns the band it used (see [`Self::band_px`]), `None` when it could not test.
+    fn test_feature_motion(
+        &mut self,
+        matches: &[Match],
+        correlations: &[f32],
+        measured: &[Match],
+        motion: &FrameMotion,
+    ) -> Option<f64> {
+        if measured.len() < MIN_CONSENSUS {
+            return None;
+        }
+        let camera = *self.filter.camera();
+        let previous_frame = self.frame.checked_sub(1);
+        let distinct = self.options.motion_segmentation.min_correlation;
+        let distances: Vec<(usize, f64, bool)> = matches
+            .iter()
+            .zip(correlations)
+            .filter_map(|(&(index, pixel), &correlation)| {
+                let (frame, before) = self.tracks[index].last_match?;
+                (Some(frame) == previous_frame).then_some(())?;
+                Some((
+                    index,
+                    distance_from_segment(&camera, pixel, before, motion)?,
+                    correlation >= distinct,
+                ))
+            })
+            .collect();
+        let band = self.band_px(motion, &distances)?;
+        for (index, distance, distinct) in distances {
+            let track = &mut self.tracks[index];
+            // A match the consensus took fits the camera's motion whatever the band says; one
+            // that correlates less than distinctly may be a look-alike, not the feature.
+            if distance > band && distinct && !measured.iter().any(|m| m.0 == index) {
+                track.off_segment_in_a_row += 1;
+            } else {
+                track.off_segment_in_a_row = 0;
+            }
+        }
+        Some(band)
+    }
+
+    /// The band around the epipolar segments where static points lie: the filter's own
+    /// (pixel noise and the motion's uncertainty), widened when the frame's matches spread
+    /// further, as they do when the frame's motion is estimated worse than the filter believes.
+    /// Their spread is taken robustly, from the median distance (of `|N(0, σ)|`, 0.674 σ), so
+    /// that the few moving points do not set it. `None` with too few matches to tell a
+    /// moving point from a frame whose motion is poorly estimated: nothing is tested then.
+    fn band_px(&self, motion: &FrameMotion, distances: &[(usize, f64, bool)]) -> Option<f64> {
+        let options = &self.options.motion_segmentation;
+        let model = motion_segmentation::band_px(self.filter.camera(), motion, options);
+        if distances.len() < MIN_CONSENSUS {
+            return None;
+        }
+        let mut sorted: Vec<f64> = distances.iter().map(|&(_, d, _)| d).collect();
+        sorted.sort_by(f64::total_cmp);
+        let sigma = sorted[sorted.len() / 2] / 0.674;
+        Some(model.max(options.gate_chi2.sqrt() * sigma))
+    }
+
+    /// The camera's motion since the previous frame, as estimated now.
+    fn frame_motion(&self, previous: &PreviousFrame, time_s: f64) -> FrameMotion {
+        let dt_s = time_s - previous.time_s;
+        let inverse = previous.orientation.inverse();
+        let largest_sigma =
+            |c: nalgebra::Matrix3<f64>| c.symmetric_eigenvalues().max().max(0.0).sqrt();
+        let angular_sigma = largest_sigma(self.filter.angular_velocity_covariance());
+        let linear_sigma = largest_sigma(self.filter.velocity_covariance());
+        let ekf = self.filter.options();
+        let [rho, sigma_rho] = ekf.initial_inverse_depth;
+        FrameMotion {
+            rotation: inverse * self.filter.orientation(),
+            translation: inverse * (self.filter.position_m() - previous.position),
+            rotation_sigma_rad: angular_sigma * dt_s.abs(),
+            translation_sigma: linear_sigma * dt_s.abs(),
+            pixel_sigma_px: ekf.pixel_sigma_px,
+            // The nearest depth a new feature's prior reaches at two standard deviations.
+            min_depth: 1.0 / (rho + 2.0 * sigma_rho),
         }
     }
 
     /// Active search: every feature predicted in view, in its innovation ellipse.
     /// Returns how many features were searched for, and each match with the prediction it
     /// was searched at (the state has not changed since, so RANSAC reuses it).
-    fn search(&mut self, image: &GrayImage) -> (usize, Vec<(Match, Prediction)>) {
+    fn search(&mut self, image: &GrayImage) -> (usize, Vec<(Match, Prediction, f32)>) {
         let margin = f64::from(self.options.patch_half_px);
         let mut searched = 0;
         let mut matches = Vec::new();
@@ -269,7 +431,7 @@ impl MonoSlam {
             if let Some((pixel, score)) = search(&template, image, box_px, inside)
                 && score >= self.options.min_correlation
             {
-                matches.push(((index, pixel), prediction));
+                matches.push(((index, pixel), prediction, score));
             }
         }
         (searched, matches)
@@ -278,25 +440,28 @@ impl MonoSlam {
     /// 1-point RANSAC over `matches` (each with its `predictions` entry), the supporters'
     /// update and the rescue. Returns the matches that updated the filter.
     fn measure(&mut self, matches: &[Match], predictions: &[Prediction]) -> Vec<Match> {
+        let support_of = |x: &nalgebra::DVector<f64>| -> Vec<Match> {
+            matches
+                .iter()
+                .filter(|&&(other, seen)| {
+                    self.filter.pixel_in(x, other).is_some_and(|p| {
+                        (p[0] - seen[0]).hypot(p[1] - seen[1]) <= self.options.ransac_inlier_px
+                    })
+                })
+                .copied()
+                .collect()
+        };
         let mut best_support: Vec<Match> = Vec::new();
         for (&(index, pixel), prediction) in matches.iter().zip(predictions) {
             let Some(x) = self.filter.hypothesis(index, prediction, pixel) else {
                 continue;
             };
-            let support: Vec<Match> = matches
-                .iter()
-                .filter(|&&(other, seen)| {
-                    self.filter.pixel_in(&x, other).is_some_and(|p| {
-                        (p[0] - seen[0]).hypot(p[1] - seen[1]) <= self.options.ransac_inlier_px
-                    })
-                })
-                .copied()
-                .collect();
+            let support = support_of(&x);
             if support.len() > best_support.len() {
                 best_support = support;
             }
         }
-        if best_support.is_empty() || !self.filter.update(&best_support) {
+        if best_support.len() < 2 || !self.filter.update(&best_support) {
             return Vec::new();
         }
         let rescued: Vec<Match> = matches
@@ -319,14 +484,21 @@ impl MonoSlam {
         measured
     }
 
-    /// Deletes features found in fewer than half of their searches, and the longest unseen
-    /// beyond [`MonoSlamOptions::max_features`]. Returns how many went.
-    fn delete_poor_features(&mut self) -> usize {
+    /// Deletes features refused as moving, those found in fewer than half of their searches,
+    /// and the longest unseen beyond [`MonoSlamOptions::max_features`]. Returns how many
+    /// went, and how many of them as moving.
+    fn delete_poor_features(&mut self) -> (usize, usize) {
         let mut deleted = 0;
+        let mut moving = 0;
         let mut index = 0;
         while index < self.tracks.len() {
             let t = &self.tracks[index];
-            if t.searched >= self.options.min_attempts_to_delete && 2 * t.found < t.searched {
+            if t.off_segment_in_a_row >= self.options.max_off_segment_in_a_row {
+                self.remove(index);
+                deleted += 1;
+                moving += 1;
+            } else if t.searched >= self.options.min_attempts_to_delete && 2 * t.found < t.searched
+            {
                 self.remove(index);
                 deleted += 1;
             } else {
@@ -340,7 +512,7 @@ impl MonoSlam {
             self.remove(oldest);
             deleted += 1;
         }
-        deleted
+        (deleted, moving)
     }
 
     fn remove(&mut self, index: usize) {
@@ -348,8 +520,13 @@ impl MonoSlam {
         self.tracks.remove(index);
     }
 
-    /// New features at FAST corners in the grid cells that hold none. Returns how many.
-    fn add_features(&mut self, image: &GrayImage) -> usize {
+    /// New features at FAST corners in the grid cells that hold none, unless they move on
+    /// their own since the previous frame (`motion`). Returns how many.
+    fn add_features(
+        &mut self,
+        image: &GrayImage,
+        motion: Option<(FrameMotion, &GrayImage, f64)>,
+    ) -> usize {
         let camera = *self.filter.camera();
         let [columns, rows] = self.options.grid_cells;
         let cell_of = |p: [f64; 2]| -> Option<usize> {
@@ -392,6 +569,21 @@ impl MonoSlam {
                 break;
             }
             let centre = [i64::from(corner.x), i64::from(corner.y)];
+            if let Some((motion, previous, band)) = motion
+                && let PointMotion::Moving { previous_px } = classify(
+                    &camera,
+                    [previous, image],
+                    centre,
+                    &motion,
+                    band,
+                    self.options.patch_half_px,
+                    &self.options.motion_segmentation,
+                )
+            {
+                self.moving_corners
+                    .push(([corner.x as f64, corner.y as f64], previous_px));
+                continue;
+            }
             // The crop reaches beyond the patch so that a warp turned by up to 45° or
             // scaled by up to half stays inside it.
             let crop_half = 2 * self.options.patch_half_px + 2;
@@ -409,6 +601,8 @@ impl MonoSlam {
                     searched: 0,
                     found: 0,
                     last_seen_frame: self.frame,
+                    last_match: None,
+                    off_segment_in_a_row: 0,
                 });
                 added += 1;
             }
