@@ -48,6 +48,8 @@ pub struct CameraReplaySummary {
     pub features_rejected_as_moving: usize,
     /// Corners not taken as features because they moved on their own between two frames.
     pub corners_rejected_as_moving: usize,
+    /// Local maps the run made (each at most `max_features` features).
+    pub local_maps: usize,
     /// Features in the final map.
     pub map_points: usize,
     /// Against the folder's ground truth, after the best similarity transform.
@@ -179,6 +181,7 @@ pub fn replay_camera(
         matches_rejected: stats.rejected_matches,
         features_rejected_as_moving: stats.features_rejected_as_moving,
         corners_rejected_as_moving: stats.corners_rejected_as_moving,
+        local_maps: stats.local_maps,
         map_points: map_points.len(),
         error,
     };

@@ -49,6 +49,11 @@ impl Appearance {
         })
     }
 
+    /// Expresses the first sighting's orientation in another world frame.
+    pub fn change_frame(&mut self, new_from_old: UnitQuaternion<f64>) {
+        self.orientation = new_from_old * self.orientation;
+    }
+
     /// The crop's value at `pixel` of the first image, bilinearly; `None` outside the crop.
     fn sample(&self, pixel: [f64; 2]) -> Option<f32> {
         let x = pixel[0] - self.corner[0] as f64;

@@ -558,6 +558,53 @@ impl MonoEkf {
         }
     }
 
+    /// Moves the state to a new frame at the camera (a new local map starts there): the
+    /// camera at the origin with no rotation and an exactly known pose, its velocity and every
+    /// feature expressed relative to it, and the covariance carried through the change, so that
+    /// each feature keeps its uncertainty relative to the camera. Returns the new frame's
+    /// position and orientation in the old one.
+    pub fn rebase(&mut self) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        let old_from_new = (self.position_m(), self.orientation());
+        let kinds = self.kinds.clone();
+        let offsets = self.offsets.clone();
+        let transform = |x: &[f64]| -> Option<Vec<f64>> {
+            let r = Vector3::new(x[0], x[1], x[2]);
+            let new_from_old = quaternion(&x[3..7]).inverse();
+            let mut out = x.to_vec();
+            out[..7].copy_from_slice(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+            let v = new_from_old * Vector3::new(x[7], x[8], x[9]);
+            out[7..10].copy_from_slice(v.as_slice());
+            for (&kind, &offset) in kinds.iter().zip(&offsets) {
+                let f = &x[offset..offset + kind.size()];
+                match kind {
+                    FeatureKind::Euclidean => {
+                        let p = new_from_old * (Vector3::new(f[0], f[1], f[2]) - r);
+                        out[offset..offset + 3].copy_from_slice(p.as_slice());
+                    }
+                    FeatureKind::InverseDepth => {
+                        let anchor = new_from_old * (Vector3::new(f[0], f[1], f[2]) - r);
+                        let m = new_from_old * direction(f[3], f[4]);
+                        out[offset..offset + 3].copy_from_slice(anchor.as_slice());
+                        out[offset + 3] = m.x.atan2(m.z);
+                        out[offset + 4] = (-m.y).atan2(m.x.hypot(m.z));
+                    }
+                }
+            }
+            Some(out)
+        };
+        let n = self.x.len();
+        let (Some(x), Some(j)) = (
+            transform(self.x.as_slice()),
+            jacobian(self.x.as_slice(), n, transform),
+        ) else {
+            return old_from_new;
+        };
+        self.x = DVector::from_vec(x);
+        self.p = &j * &self.p * j.transpose();
+        self.p = (&self.p + self.p.transpose()) * 0.5;
+        old_from_new
+    }
+
     /// The options the filter was made with.
     pub fn options(&self) -> &MonoEkfOptions {
         &self.options
@@ -647,6 +694,55 @@ mod tests {
             (travelled - Vector3::new(2.0, 0.0, 0.0)).norm() < 0.15,
             "{travelled}"
         );
+    }
+
+    #[test]
+    fn a_new_frame_at_the_camera_changes_no_pixel_and_no_point() {
+        let cam = camera();
+        let mut filter = MonoEkf::new(cam, MonoEkfOptions::default());
+        let points = [
+            Vector3::new(-1.0, -0.5, 4.0),
+            Vector3::new(1.0, 0.3, 4.5),
+            Vector3::new(0.2, 0.8, 3.5),
+            Vector3::new(-0.6, 0.6, 5.0),
+        ];
+        for p in &points {
+            filter.add_feature(cam.project(p).expect("in front"));
+        }
+        let dt = 1.0 / 30.0;
+        for frame in 1..=60 {
+            filter.predict(dt);
+            let position = Vector3::new(frame as f64 * dt, 0.0, 0.0);
+            let measured: Vec<(usize, [f64; 2])> = points
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| Some((i, cam.project(&(p - position))?)))
+                .collect();
+            assert!(filter.update(&measured));
+        }
+        filter.convert_linear_features();
+        let pixels: Vec<[f64; 2]> = (0..points.len())
+            .map(|i| filter.pixel(i).unwrap())
+            .collect();
+        let in_old: Vec<Vector3<f64>> = (0..points.len())
+            .map(|i| filter.point_in_world(i).unwrap())
+            .collect();
+        let (origin, rotation) = filter.rebase();
+        assert!(filter.position_m().norm() < 1e-12);
+        assert!(filter.orientation().angle() < 1e-12);
+        assert!(filter.p.view((0, 0), (7, 7)).norm() < 1e-9);
+        for i in 0..points.len() {
+            let pixel = filter.pixel(i).unwrap();
+            assert!((pixel[0] - pixels[i][0]).hypot(pixel[1] - pixels[i][1]) < 1e-6);
+            let back = rotation * filter.point_in_world(i).unwrap() + origin;
+            assert!(
+                (back - in_old[i]).norm() < 1e-9,
+                "{back} against {}",
+                in_old[i]
+            );
+        }
+        // Each feature keeps its uncertainty relative to the camera: not less than before.
+        assert!(filter.p.view((CAMERA_STATE, CAMERA_STATE), (6, 6)).norm() > 0.0);
     }
 
     #[test]

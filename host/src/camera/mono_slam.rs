@@ -67,7 +67,9 @@ pub struct MonoSlamOptions {
     pub fast_threshold: u8,
     /// A feature searched this often and found in fewer than half is deleted.
     pub min_attempts_to_delete: u32,
-    /// At most this many features in the state; the longest unseen go first.
+    /// A local map holds at most this many features: when a frame wants new ones and there is
+    /// no room, a new local map starts at the camera with the features measured in that
+    /// frame, and the others stay, finished, in the map.
     pub max_features: usize,
     /// A feature whose match leaves the epipolar segment of its match in the frame before in
     /// this many frames in a row is deleted as moving.
@@ -156,6 +158,8 @@ pub struct MonoSlamStats {
     pub features_rejected_as_moving: usize,
     /// Corners not taken as new features because they moved on their own.
     pub corners_rejected_as_moving: usize,
+    /// Local maps started, the first included.
+    pub local_maps: usize,
 }
 
 /// The motion tests need a consensus to test against: at least this many matches that
@@ -177,6 +181,10 @@ pub struct MonoSlam {
     moving_corners: Vec<([f64; 2], [f64; 2])>,
     frame: usize,
     stats: MonoSlamStats,
+    /// The current local map's frame in the world (the first camera's) frame.
+    world_from_local: (Vector3<f64>, UnitQuaternion<f64>),
+    /// The finished local maps' features, world frame.
+    finished_points: Vec<Vector3<f64>>,
 }
 
 impl MonoSlam {
@@ -190,7 +198,12 @@ impl MonoSlam {
             previous: None,
             moving_corners: Vec::new(),
             frame: 0,
-            stats: MonoSlamStats::default(),
+            stats: MonoSlamStats {
+                local_maps: 1,
+                ..MonoSlamStats::default()
+            },
+            world_from_local: (Vector3::zeros(), UnitQuaternion::identity()),
+            finished_points: Vec::new(),
         }
     }
 
@@ -204,11 +217,65 @@ impl MonoSlam {
         self.stats
     }
 
-    /// The map: every feature with a finite depth, world frame.
+    /// The map: every feature with a finite depth, of the finished local maps and the
+    /// current one, world frame.
     pub fn map_points(&self) -> Vec<Vector3<f64>> {
-        (0..self.filter.num_features())
+        let mut points = self.finished_points.clone();
+        points.extend(self.local_points_in_world(0..self.filter.num_features()));
+        points
+    }
+
+    /// The given features of the current local map with a finite depth, world frame.
+    fn local_points_in_world(
+        &self,
+        features: impl Iterator<Item = usize>,
+    ) -> impl Iterator<Item = Vector3<f64>> {
+        let (origin, rotation) = self.world_from_local;
+        features
             .filter_map(|i| self.filter.point_in_world(i))
-            .collect()
+            .map(move |p| rotation * p + origin)
+    }
+
+    /// The camera's pose in the world frame: position, `world_from_camera`.
+    pub fn pose_in_world(&self) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        let (origin, rotation) = self.world_from_local;
+        (
+            rotation * self.filter.position_m() + origin,
+            rotation * self.filter.orientation(),
+        )
+    }
+
+    /// Finishes the current local map and starts a new one at the camera, with the features
+    /// in view carried over: their estimates relative to the camera, with their covariance,
+    /// so the new map keeps the old one's scale.
+    fn start_local_map(&mut self) {
+        let camera = *self.filter.camera();
+        let finished: Vec<usize> = (0..self.tracks.len())
+            .filter(|&i| {
+                !self
+                    .filter
+                    .pixel(i)
+                    .is_some_and(|p| camera.contains(p, 0.0))
+            })
+            .collect();
+        let points: Vec<Vector3<f64>> = self
+            .local_points_in_world(finished.iter().copied())
+            .collect();
+        self.finished_points.extend(points);
+        for &index in finished.iter().rev() {
+            self.remove(index);
+        }
+        let (origin, rotation) = self.filter.rebase();
+        let new_from_old = rotation.inverse();
+        for track in &mut self.tracks {
+            track.appearance.change_frame(new_from_old);
+        }
+        let (world_origin, world_rotation) = self.world_from_local;
+        self.world_from_local = (
+            world_rotation * origin + world_origin,
+            world_rotation * rotation,
+        );
+        self.stats.local_maps += 1;
     }
 
     /// The features' pixels in the last frame and their innovation covariance, for drawing.
@@ -259,7 +326,13 @@ impl MonoSlam {
         }
         let (deleted, deleted_as_moving) = self.delete_poor_features();
         self.moving_corners.clear();
-        let added = if measured.len() < self.options.target_visible {
+        let wants_features = measured.len() < self.options.target_visible;
+        if wants_features
+            && self.tracks.len() + self.options.max_new_per_frame > self.options.max_features
+        {
+            self.start_local_map();
+        }
+        let added = if wants_features {
             let tested = motion
                 .zip(band)
                 .map(|((m, previous), band)| (m, previous, band));
@@ -281,10 +354,11 @@ impl MonoSlam {
         self.stats.added += added;
         self.stats.deleted += deleted;
         self.frame += 1;
+        let (position_m, orientation) = self.pose_in_world();
         FrameReport {
             time_s,
-            position_m: self.filter.position_m(),
-            orientation: self.filter.orientation(),
+            position_m,
+            orientation,
             searched,
             matched: matches.len(),
             measured: measured.len(),
