@@ -11,6 +11,7 @@ fn options(sequence: std::path::PathBuf, name: &str, first_frames: usize) -> Cam
         sequence,
         out: std::env::temp_dir().join(format!("camera-{name}-{}", std::process::id())),
         first_frames: Some(first_frames),
+        target: None,
         slam: MonoSlamOptions::default(),
         progress: false,
     }
@@ -65,4 +66,45 @@ fn kitti_frames_calibration_and_truth_are_read() {
     let summary = replay_camera(&options).expect("replay");
     assert_eq!(summary.frames, 20);
     assert!(summary.error.is_some_and(|e| e.poses == 20), "{summary:?}");
+}
+
+/// KITTI's camera is mounted 1.65 m above the road (Geiger et al. 2013): a road pixel below
+/// the horizon is then a point of known position, and a few of them make a known target.
+#[test]
+fn a_target_on_kitti_s_road_gives_the_run_metres() {
+    let test = "a_target_on_kitti_s_road_gives_the_run_metres";
+    let Some(sequence) = datasets::require("camera/kitti-07-0000-0159", test) else {
+        return;
+    };
+    let camera = host::camera::CameraSequence::open(&sequence)
+        .expect("KITTI layout")
+        .camera;
+    const HEIGHT_M: f64 = 1.65;
+    // A manhole cover and patches of asphalt in frame 0.
+    let pixels = [
+        (398.0, 355.0),
+        (468.0, 355.0),
+        (432.0, 347.0),
+        (300.0, 330.0),
+        (900.0, 330.0),
+        (640.0, 320.0),
+    ];
+    let mut text = String::from("# road points of KITTI 07 frame 0, by the camera height\n");
+    for (u, v) in pixels {
+        let depth_m = HEIGHT_M * camera.fy_px / (v - camera.cy_px);
+        let x_m = (u - camera.cx_px) * depth_m / camera.fx_px;
+        text += &format!("{u} {v} {x_m:.4} {HEIGHT_M} {depth_m:.4}\n");
+    }
+    let mut options = options(sequence, "kitti-target", 10);
+    std::fs::create_dir_all(&options.out).expect("out");
+    let target = options.out.join("target.txt");
+    std::fs::write(&target, text).expect("target file");
+    options.target = Some(target);
+    let summary = replay_camera(&options).expect("replay");
+    assert_eq!(summary.target_corners, Some(pixels.len()));
+    let error = summary.error.expect("the folder has ground truth");
+    // The car drives 1.1 m in these frames; the estimate is in metres without alignment's
+    // help.
+    assert!((error.scale - 1.0).abs() < 0.05, "{error:?}");
+    assert!(error.ate_rmse_m < 0.05, "{error:?}");
 }

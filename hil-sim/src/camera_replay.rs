@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use host::camera::sequence::TruePose;
 use host::camera::{
-    CameraSequence, FrameReport, MonoSlam, MonoSlamOptions, SequenceError, TrajectoryError,
-    trajectory_error,
+    CameraSequence, FrameReport, MonoSlam, MonoSlamOptions, SequenceError, TargetError,
+    TrajectoryError, parse_known_target, trajectory_error,
 };
 use image::{GrayImage, Rgb, RgbImage};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -23,6 +23,8 @@ pub struct CameraReplayOptions {
     pub out: PathBuf,
     /// Only the first N frames.
     pub first_frames: Option<usize>,
+    /// A known target file (see [`host::camera::known_target`]).
+    pub target: Option<PathBuf>,
     pub slam: MonoSlamOptions,
     /// Show a progress bar on stderr.
     pub progress: bool,
@@ -48,6 +50,8 @@ pub struct CameraReplaySummary {
     pub features_rejected_as_moving: usize,
     /// Corners not taken as features because they moved on their own between two frames.
     pub corners_rejected_as_moving: usize,
+    /// Corners of the known target the run started from.
+    pub target_corners: Option<usize>,
     /// Local maps the run made (each at most `max_features` features).
     pub local_maps: usize,
     /// Features in the final map.
@@ -91,6 +95,10 @@ pub enum CameraReplayError {
     #[error(transparent)]
     Sequence(#[from] SequenceError),
     #[error("{path}: {source}")]
+    Target { path: PathBuf, source: TargetError },
+    #[error("{path}: {source}")]
+    Read { path: PathBuf, source: io::Error },
+    #[error("{path}: {source}")]
     Write { path: PathBuf, source: io::Error },
 }
 
@@ -121,6 +129,27 @@ pub fn replay_camera(
         .map_or(sequence.frames.len(), |n| n.min(sequence.frames.len()));
     fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
     let mut slam = MonoSlam::new(sequence.camera, options.slam);
+    let target = match &options.target {
+        Some(path) => {
+            let text = fs::read_to_string(path).map_err(|source| CameraReplayError::Read {
+                path: path.clone(),
+                source,
+            })?;
+            let target = parse_known_target(&text).map_err(|source| CameraReplayError::Target {
+                path: path.clone(),
+                source,
+            })?;
+            if frames > 0 {
+                slam.add_target(&sequence.load(0)?, &target)
+                    .map_err(|source| CameraReplayError::Target {
+                        path: path.clone(),
+                        source,
+                    })?;
+            }
+            Some(target.corners.len())
+        }
+        None => None,
+    };
     let bar = if options.progress {
         indicatif::ProgressBar::new(frames as u64)
     } else {
@@ -181,6 +210,7 @@ pub fn replay_camera(
         matches_rejected: stats.rejected_matches,
         features_rejected_as_moving: stats.features_rejected_as_moving,
         corners_rejected_as_moving: stats.corners_rejected_as_moving,
+        target_corners: target,
         local_maps: stats.local_maps,
         map_points: map_points.len(),
         error,

@@ -12,9 +12,10 @@ use super::CliResult;
 /// `fx fy cx cy k1 k2 p1 p2 k3`, optional groundtruth.txt). Writes OUT/trajectory.tum
 /// (`t tx ty tz qx qy qz qw`, the camera in the first frame's camera frame),
 /// OUT/map.ply (the 3D features), OUT/tracks.png (four frames with the features in view and
-/// their 3σ search ellipses) and OUT/summary.json (frames, speed, features per frame and, with
-/// ground truth, the error after the best similarity alignment: a single camera fixes no
-/// scale).
+/// their 3σ search ellipses, corners found moving in blue) and OUT/summary.json (frames,
+/// speed, features per frame, local maps, features rejected as moving and, with ground truth,
+/// the error after the best similarity alignment: a single camera fixes no scale unless a
+/// known target gives it).
 #[derive(Debug, clap::Args)]
 pub struct ReplayCameraArgs {
     /// The sequence folder.
@@ -25,6 +26,11 @@ pub struct ReplayCameraArgs {
     /// Only the first N frames.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     first_frames: Option<u64>,
+    /// A known target seen in the first frame, which gives the run a metric scale: a text
+    /// file, one corner per line, `u_px v_px x_m y_m z_m` (its pixel in the first frame and
+    /// its position in the first camera's frame: x right, y down, z forward); `#` comments.
+    #[arg(long, value_name = "FILE")]
+    target: Option<PathBuf>,
 }
 
 /// Runs the camera method; prints the summary on stdout.
@@ -33,6 +39,7 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
         sequence: args.sequence,
         out: args.out,
         first_frames: args.first_frames.map(|n| n as usize),
+        target: args.target,
         slam: host::camera::MonoSlamOptions::default(),
         progress: true,
     };

@@ -5,12 +5,14 @@
 //! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
 //! * [`patch`]: feature patches and their correlation search; [`appearance`]: a feature's
 //!   first sighting, warped to the view of the camera now.
+//! * [`known_target`]: a target of known corners that gives a run its scale.
 //! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
 //! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
 //! * [`motion_segmentation`]: points that move on their own, kept out of the map.
 //! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
 
 pub mod appearance;
+pub mod known_target;
 pub mod mono_ekf;
 pub mod mono_slam;
 pub mod motion_segmentation;
@@ -19,6 +21,7 @@ pub mod pinhole;
 pub mod sequence;
 pub mod trajectory_error;
 
+pub use known_target::{KnownTarget, TargetCorner, TargetError, parse_known_target};
 pub use mono_ekf::{MonoEkf, MonoEkfOptions};
 pub use mono_slam::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats};
 pub use pinhole::PinholeCamera;

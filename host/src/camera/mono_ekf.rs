@@ -423,6 +423,26 @@ impl MonoEkf {
         true
     }
 
+    /// Adds a point of known position (world frame, m), uncorrelated with the rest, each
+    /// coordinate with standard deviation `sigma_m`: a known target's corner. Returns its
+    /// index.
+    pub fn add_known_point(&mut self, position_m: Vector3<f64>, sigma_m: f64) -> usize {
+        let n = self.x.len();
+        let mut x = DVector::zeros(n + 3);
+        x.rows_mut(0, n).copy_from(&self.x);
+        x.rows_mut(n, 3).copy_from(&position_m);
+        let mut p = DMatrix::zeros(n + 3, n + 3);
+        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
+        for i in n..n + 3 {
+            p[(i, i)] = sigma_m * sigma_m;
+        }
+        self.x = x;
+        self.p = p;
+        self.kinds.push(FeatureKind::Euclidean);
+        self.offsets.push(n);
+        self.kinds.len() - 1
+    }
+
     /// Adds a feature first seen at `pixel` from the current camera pose, in inverse depth
     /// with the prior depth (undelayed initialisation). Returns its index, or `None` when the
     /// pixel has no ray (outside the calibrated field).

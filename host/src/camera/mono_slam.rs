@@ -30,10 +30,12 @@ use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
 use super::appearance::Appearance;
+use super::known_target::{KnownTarget, TargetError};
 use super::mono_ekf::{MonoEkf, MonoEkfOptions, Prediction};
 use super::motion_segmentation::{
     self, FrameMotion, MotionSegmentationOptions, PointMotion, classify, distance_from_segment,
 };
+use super::patch::Patch;
 use super::patch::search;
 use super::pinhole::PinholeCamera;
 
@@ -76,6 +78,8 @@ pub struct MonoSlamOptions {
     pub max_off_segment_in_a_row: u32,
     /// How new features' corners are tested for motion of their own.
     pub motion_segmentation: MotionSegmentationOptions,
+    /// A known target's corners are placed to this standard deviation on each axis, m.
+    pub target_sigma_m: f64,
 }
 
 impl Default for MonoSlamOptions {
@@ -96,6 +100,7 @@ impl Default for MonoSlamOptions {
             max_features: 100,
             max_off_segment_in_a_row: 3,
             motion_segmentation: MotionSegmentationOptions::default(),
+            target_sigma_m: 0.005,
         }
     }
 }
@@ -234,6 +239,50 @@ impl MonoSlam {
         features
             .filter_map(|i| self.filter.point_in_world(i))
             .map(move |p| rotation * p + origin)
+    }
+
+    /// Starts the run from a known target seen in `first_image` (the first frame, before it is
+    /// processed): each corner becomes a point of known position with its patch from that
+    /// image, which gives the run a metric scale. See [`super::known_target`].
+    ///
+    /// # Errors
+    /// A corner too near the image's edge for its patch, or on a flat part of the image.
+    pub fn add_target(
+        &mut self,
+        first_image: &GrayImage,
+        target: &KnownTarget,
+    ) -> Result<(), TargetError> {
+        let crop_half = 2 * self.options.patch_half_px + 2;
+        let mut seen = Vec::with_capacity(target.corners.len());
+        for (corner, c) in target.corners.iter().enumerate() {
+            let pixel = [c.pixel[0].round() as i64, c.pixel[1].round() as i64];
+            let fail = |what| TargetError::Corner {
+                corner: corner + 1,
+                u_px: c.pixel[0],
+                v_px: c.pixel[1],
+                what,
+            };
+            if Patch::from_image(first_image, pixel, self.options.patch_half_px).is_none() {
+                return Err(fail("flat or too near the image's edge for a patch"));
+            }
+            let appearance =
+                Appearance::new(first_image, pixel, crop_half, self.filter.orientation())
+                    .ok_or_else(|| fail("too near the image's edge for a patch"))?;
+            seen.push((appearance, Vector3::from(c.position_m)));
+        }
+        for (appearance, position_m) in seen {
+            self.filter
+                .add_known_point(position_m, self.options.target_sigma_m);
+            self.tracks.push(Track {
+                appearance,
+                searched: 0,
+                found: 0,
+                last_seen_frame: self.frame,
+                last_match: None,
+                off_segment_in_a_row: 0,
+            });
+        }
+        Ok(())
     }
 
     /// The camera's pose in the world frame: position, `world_from_camera`.
@@ -682,5 +731,105 @@ impl MonoSlam {
             }
         }
         added
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::known_target::TargetCorner;
+
+    /// Random grey blocks of 6 cm, blended at their edges: a textured wall.
+    fn wall(x_m: f64, y_m: f64) -> f64 {
+        let block = |bx: i64, by: i64| -> f64 {
+            let mut h = (bx as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                ^ (by as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f);
+            h ^= h >> 29;
+            h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h ^= h >> 32;
+            (h % 200) as f64 + 28.0
+        };
+        let (u, v) = (x_m / 0.06, y_m / 0.06);
+        let (bx, by) = (u.floor() as i64, v.floor() as i64);
+        let (fx, fy) = (u - u.floor(), v - v.floor());
+        let top = block(bx, by) * (1.0 - fx) + block(bx + 1, by) * fx;
+        let bottom = block(bx, by + 1) * (1.0 - fx) + block(bx + 1, by + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    const WALL_DEPTH_M: f64 = 3.0;
+
+    fn camera() -> PinholeCamera {
+        PinholeCamera::ideal(300.0, 300.0, 160.0, 120.0, [320, 240])
+    }
+
+    /// The wall `WALL_DEPTH_M` ahead, seen by [`camera`] moved `x_m` to the right.
+    fn view(x_m: f64) -> GrayImage {
+        let c = camera();
+        GrayImage::from_fn(c.width_px, c.height_px, |u, v| {
+            let x = x_m + WALL_DEPTH_M * (f64::from(u) - c.cx_px) / c.fx_px;
+            let y = WALL_DEPTH_M * (f64::from(v) - c.cy_px) / c.fy_px;
+            image::Luma([wall(x, y).clamp(0.0, 255.0) as u8])
+        })
+    }
+
+    #[test]
+    fn a_known_target_gives_the_run_its_scale() {
+        let c = camera();
+        let target = KnownTarget {
+            corners: [[70.0, 50.0], [250.0, 50.0], [70.0, 190.0], [250.0, 190.0]]
+                .iter()
+                .map(|&[u, v]| TargetCorner {
+                    pixel: [u, v],
+                    position_m: [
+                        WALL_DEPTH_M * (u - c.cx_px) / c.fx_px,
+                        WALL_DEPTH_M * (v - c.cy_px) / c.fy_px,
+                        WALL_DEPTH_M,
+                    ],
+                })
+                .collect(),
+        };
+        let speed_m_s = 0.5;
+        let frames = 45;
+        let mut slam = MonoSlam::new(c, MonoSlamOptions::default());
+        slam.add_target(&view(0.0), &target)
+            .expect("textured corners");
+        let mut last = None;
+        for frame in 0..frames {
+            let time_s = f64::from(frame) / 30.0;
+            last = Some(slam.process(time_s, &view(speed_m_s * time_s)));
+        }
+        let travelled_m = speed_m_s * f64::from(frames - 1) / 30.0;
+        let position = last.expect("frames").position_m;
+        assert!(
+            (position.x - travelled_m).abs() < 0.1 * travelled_m,
+            "{position} against {travelled_m} m"
+        );
+        assert!(position.yz().norm() < 0.1 * travelled_m, "{position}");
+    }
+
+    #[test]
+    fn a_target_corner_on_a_flat_image_is_refused_by_number() {
+        let target = KnownTarget {
+            corners: vec![
+                TargetCorner {
+                    pixel: [100.0, 100.0],
+                    position_m: [0.0, 0.0, 1.0],
+                },
+                TargetCorner {
+                    pixel: [318.0, 100.0],
+                    position_m: [0.5, 0.0, 1.0],
+                },
+            ],
+        };
+        let mut slam = MonoSlam::new(camera(), MonoSlamOptions::default());
+        let error = slam.add_target(&view(0.0), &target).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with("corner 2 at pixel (318, 100)"),
+            "{error}"
+        );
+        assert_eq!(slam.filter().num_features(), 0, "nothing added on an error");
     }
 }
