@@ -118,6 +118,20 @@ struct Track {
     off_segment_in_a_row: u32,
 }
 
+impl Track {
+    /// A feature first seen in `frame`.
+    fn new(appearance: Appearance, frame: usize) -> Self {
+        Track {
+            appearance,
+            searched: 0,
+            found: 0,
+            last_seen_frame: frame,
+            last_match: None,
+            off_segment_in_a_row: 0,
+        }
+    }
+}
+
 /// The frame before, for motion segmentation.
 #[derive(Clone, Debug)]
 struct PreviousFrame {
@@ -273,14 +287,7 @@ impl MonoSlam {
         for (appearance, position_m) in seen {
             self.filter
                 .add_known_point(position_m, self.options.target_sigma_m);
-            self.tracks.push(Track {
-                appearance,
-                searched: 0,
-                found: 0,
-                last_seen_frame: self.frame,
-                last_match: None,
-                off_segment_in_a_row: 0,
-            });
+            self.tracks.push(Track::new(appearance, self.frame));
         }
         Ok(())
     }
@@ -719,14 +726,7 @@ impl MonoSlam {
                 .add_feature([corner.x as f64, corner.y as f64])
                 .is_some()
             {
-                self.tracks.push(Track {
-                    appearance,
-                    searched: 0,
-                    found: 0,
-                    last_seen_frame: self.frame,
-                    last_match: None,
-                    off_segment_in_a_row: 0,
-                });
+                self.tracks.push(Track::new(appearance, self.frame));
                 added += 1;
             }
         }
