@@ -663,6 +663,24 @@ mod tests {
         assert_eq!(filter.state_size(), CAMERA_STATE + 6);
     }
 
+    /// Two seconds at 30 Hz of the camera moving 1 m/s to the right, measuring `points`
+    /// exactly, with features converted to points once their depth is known.
+    fn walk_sideways(filter: &mut MonoEkf, points: &[Vector3<f64>]) {
+        let cam = *filter.camera();
+        let dt = 1.0 / 30.0;
+        for frame in 1..=60 {
+            filter.predict(dt);
+            let position = Vector3::new(frame as f64 * dt, 0.0, 0.0);
+            let measured: Vec<(usize, [f64; 2])> = points
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| Some((i, cam.project(&(p - position))?)))
+                .collect();
+            assert!(filter.update(&measured));
+            filter.convert_linear_features();
+        }
+    }
+
     #[test]
     fn sideways_motion_fixes_the_features_depths_up_to_scale() {
         // A camera moving along x at 1 m/s sees points 4 m ahead; the filter, told nothing
@@ -682,18 +700,7 @@ mod tests {
             let pixel = cam.project(p).expect("in front");
             filter.add_feature(pixel);
         }
-        let dt = 1.0 / 30.0;
-        for frame in 1..=60 {
-            filter.predict(dt);
-            let position = Vector3::new(frame as f64 * dt, 0.0, 0.0);
-            let measured: Vec<(usize, [f64; 2])> = points
-                .iter()
-                .enumerate()
-                .filter_map(|(i, p)| Some((i, cam.project(&(p - position))?)))
-                .collect();
-            assert!(filter.update(&measured));
-            filter.convert_linear_features();
-        }
+        walk_sideways(&mut filter, &points);
         // The scale that best takes the estimated points to the true ones.
         let estimates: Vec<Vector3<f64>> = (0..points.len())
             .map(|i| filter.point_in_world(i).expect("a depth"))
@@ -729,18 +736,7 @@ mod tests {
         for p in &points {
             filter.add_feature(cam.project(p).expect("in front"));
         }
-        let dt = 1.0 / 30.0;
-        for frame in 1..=60 {
-            filter.predict(dt);
-            let position = Vector3::new(frame as f64 * dt, 0.0, 0.0);
-            let measured: Vec<(usize, [f64; 2])> = points
-                .iter()
-                .enumerate()
-                .filter_map(|(i, p)| Some((i, cam.project(&(p - position))?)))
-                .collect();
-            assert!(filter.update(&measured));
-        }
-        filter.convert_linear_features();
+        walk_sideways(&mut filter, &points);
         let pixels: Vec<[f64; 2]> = (0..points.len())
             .map(|i| filter.pixel(i).unwrap())
             .collect();
