@@ -61,8 +61,9 @@ pub struct ReplayCarmenArgs {
     /// heading, and a pose it finds must bring the share to this.
     #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().full_turn_below_surface_fraction, allow_hyphen_values = true, value_parser = parse_fraction)]
     every_heading_below: f64,
-    /// Local tracking: how much the share of the scanned surface on cells the submap has
-    /// seen free counts against a candidate pose (the share on its surfaces counts 1).
+    /// Local tracking: how much the share of the scanned surface that contradicts the submap
+    /// (end points on cells it has seen free, beams through its walls) counts against a
+    /// candidate pose (the share on its surfaces counts 1).
     #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().free_weight, allow_hyphen_values = true, value_parser = parse_weight)]
     free_weight: f64,
     /// Pose graph: a scan-to-scan constraint is left almost free along the direction in

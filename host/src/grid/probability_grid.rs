@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::map_limits::{CellIndex, MapLimits};
 use super::range_inserter::{RangeInserter, RangeInserterOptions};
 use crate::geometry::Pose2;
-use crate::scan_match::Scan;
+use crate::scan_match::{BresenhamLine, Scan};
 
 /// Marks a cell nobody has observed.
 const UNKNOWN_LOG_ODDS: f32 = f32::NAN;
@@ -166,6 +166,48 @@ impl ProbabilityGrid {
             return None;
         }
         self.probability(self.limits.cell_index(point_in_grid))
+    }
+
+    /// Whether a cell of the Bresenham line from `from` to `to` (both included) is known with
+    /// a probability of at least `min_probability`: whether a beam along it passes a surface.
+    /// Cells outside the grid count as unknown.
+    pub fn line_reaches_probability(
+        &self,
+        from: CellIndex,
+        to: CellIndex,
+        min_probability: f32,
+    ) -> bool {
+        // Compared in log-odds (NaN, unknown, compares false), so no cell is converted.
+        let min_log_odds = log_odds_from_probability(min_probability);
+        let (Some(from_index), Some(_)) =
+            (self.limits.linear_index(from), self.limits.linear_index(to))
+        else {
+            return BresenhamLine::new(from, to)
+                .any(|cell| self.log_odds(cell).is_some_and(|l| l >= min_log_odds));
+        };
+        // Both ends inside, so every cell between them is: walked by storage index.
+        let delta_x = (i64::from(to[0]) - i64::from(from[0])).abs();
+        let delta_y = -(i64::from(to[1]) - i64::from(from[1])).abs();
+        let step_x = (to[0] - from[0]).signum() as isize;
+        let step_y = (to[1] - from[1]).signum() as isize * self.limits.width_cells() as isize;
+        let num_cells = delta_x.max(-delta_y) + 1;
+        let mut error = delta_x + delta_y;
+        let mut index = from_index as isize;
+        for _ in 0..num_cells {
+            if self.log_odds[index as usize] >= min_log_odds {
+                return true;
+            }
+            let twice_error = 2 * error;
+            if twice_error >= delta_y {
+                error += delta_y;
+                index += step_x;
+            }
+            if twice_error <= delta_x {
+                error += delta_x;
+                index += step_y;
+            }
+        }
+        false
     }
 
     /// True if `cell` lies inside the grid and has been observed.
@@ -391,6 +433,41 @@ mod tests {
             MapLimits::new(0.1, [0.0, 0.0], 4, 3),
             ProbabilityGridOptions::default(),
         )
+    }
+
+    #[test]
+    fn a_line_reaches_a_probability_where_a_cell_by_cell_walk_does() {
+        let mut grid = ProbabilityGrid::with_limits(
+            MapLimits::new(0.1, [0.0, 0.0], 20, 15),
+            ProbabilityGridOptions::default(),
+        );
+        // A fixed scatter of known cells, some of them surfaces.
+        let mut state = 12345u32;
+        let mut next = move |n: u32| {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+            (state >> 16) % n
+        };
+        for _ in 0..60 {
+            let cell = [next(20) as i32, next(15) as i32];
+            let delta = if next(3) == 0 { 3.0 } else { -1.0 };
+            grid.update_log_odds(cell, delta);
+        }
+        let mut reached = 0;
+        for _ in 0..2000 {
+            // Ends inside and outside the grid.
+            let from = [next(28) as i32 - 4, next(23) as i32 - 4];
+            let to = [next(28) as i32 - 4, next(23) as i32 - 4];
+            let walked = BresenhamLine::new(from, to)
+                .any(|cell| grid.probability(cell).is_some_and(|p| p >= 0.9));
+            assert_eq!(
+                grid.line_reaches_probability(from, to, 0.9),
+                walked,
+                "{from:?} → {to:?}"
+            );
+            reached += usize::from(walked);
+        }
+        // Both answers occur.
+        assert!(reached > 100 && reached < 1900, "{reached}");
     }
 
     #[test]

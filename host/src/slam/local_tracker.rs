@@ -13,7 +13,8 @@
 //! scans, around the prediction and around the last pose, the alignment is run again from
 //! what it found and from the last pose, and the candidate with the highest score wins (its
 //! [`SubmapFit::tracking_score`]: surface on the submap's surfaces, less a part of the surface
-//! on cells it has seen free; less the motion prior's penalty, below). When even that leaves
+//! that contradicts it, on cells it has seen free or seen through its surfaces; less the
+//! motion prior's penalty, below). When even that leaves
 //! less than [`LocalTrackingOptions::full_turn_below_surface_fraction`](super::LocalTrackingOptions)
 //! of the surface fitting, the robot may have turned further than the window reaches (a turn
 //! on the spot that reverses the last one, a turn while driving a metre), and the search runs
@@ -23,9 +24,10 @@
 //! Every candidate is weighed against the [`MotionPrior`]: its score is its fit less what the
 //! prior's uncertainty makes of its distance from the prediction, so a pose tens of degrees or
 //! metres from the prediction must fit far better to be taken, and a wide search whose best
-//! candidate still scores nothing is refused. When the prior has learned that motions stray
-//! beyond the wide search's window (scans metres apart), a search over
-//! [`LocalTrackingOptions::far_search_window_m`] follows. A scan no candidate placed keeps its
+//! candidate still scores nothing is refused. When three of the prior's standard deviations
+//! reach beyond the wide search's window (with the defaults, always), a search over
+//! [`LocalTrackingOptions::far_search_window_m`] follows the wide one, whatever the fit,
+//! unless no pose that far from the prediction could pay the prior's penalty. A scan no candidate placed keeps its
 //! predicted pose and is flagged lost ([`TrackedScan::lost`]); its constraint to the scan
 //! before carries the prior's uncertainty, so that a loop closure can undo it.
 //!
@@ -209,15 +211,23 @@ impl LocalTracker {
             for guess in guesses {
                 self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
             }
+            // The search over every heading runs on a poor fit, judged before the far search
+            // adds its candidates: a far candidate that fits a little better must not keep the
+            // right one, a turn beyond the window, from being found.
             let full_turn_floor = local.full_turn_below_surface_fraction;
-            let poor = |best: &Option<Alignment>| {
-                best.is_none_or(|a| a.fit.surface_fraction < full_turn_floor)
-            };
-            // Both run on a poor fit: a far candidate that fits a little better must not keep
-            // the right one, a turn beyond the window, from being found.
-            let poor_after_wide = poor(&best);
-            // Three standard deviations of the prior reach beyond the wide window.
-            if poor_after_wide && 3.0 * prior_sigma[0] > local.search_window_m {
+            let poor_after_wide = best.is_none_or(|a| a.fit.surface_fraction < full_turn_floor);
+            // The far search runs whenever three standard deviations of the prior reach beyond
+            // the wide window, whatever the fit: along a corridor a pose a whole step short of
+            // the truth still fits most of the surface, and only its contradictions (end points
+            // on free cells, beams through walls) tell it from the right one. It is skipped
+            // only when no pose beyond the window could win: such a pose lies at least the
+            // window's half width from the prediction, so even a perfect fit scores no more
+            // than 1 less the prior's penalty for that distance.
+            let beyond_window = predicted * Pose2::new(local.search_window_m, 0.0, 0.0);
+            let best_beyond_window = 1.0 - self.prior.penalty(predicted, beyond_window);
+            if 3.0 * prior_sigma[0] > local.search_window_m
+                && best.is_none_or(|a| a.score < best_beyond_window)
+            {
                 searched_far = true;
                 let prepared = self.far_search.prepare(&reference);
                 for guess in [motion, Pose2::IDENTITY] {

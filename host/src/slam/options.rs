@@ -113,11 +113,12 @@ pub struct LocalTrackingOptions {
     /// triggers the wide search.
     pub min_surface_fraction: f64,
     /// When the wide search still leaves a smaller share than this on the submap's surfaces,
-    /// it runs once more over every heading (a turn larger than its rotation window) and over
-    /// the far window ([`Self::far_search_window_m`]); what they find competes on its score.
+    /// it runs once more over every heading (a turn larger than its rotation window); what it
+    /// finds competes on its score.
     pub full_turn_below_surface_fraction: f64,
-    /// How much the share of the scanned surface on cells the submap has seen free counts
-    /// against a candidate pose, against the share on its surfaces
+    /// How much the share of the scanned surface that contradicts the submap (end points on
+    /// cells it has seen free, beams through its surfaces) counts against a candidate pose,
+    /// against the share on its surfaces
     /// ([`SubmapFit::tracking_score`](super::SubmapFit::tracking_score)).
     pub free_weight: f64,
     /// Half width of the wide search's translation window, metres.
@@ -132,8 +133,9 @@ pub struct LocalTrackingOptions {
     pub recent_scans: usize,
     /// What tracking expects of the motion between scans, and how sure it is of it.
     pub motion_prior: MotionPriorOptions,
-    /// Half width of the far search's translation window, metres: the reach, when the prior
-    /// has learned that scans lie farther apart than the wide search reaches.
+    /// Half width of the far search's translation window, metres. The far search runs with
+    /// the wide one whenever three of the prior's standard deviations reach beyond
+    /// [`Self::search_window_m`].
     pub far_search_window_m: f64,
     /// Pixel size of the far search's raster, metres.
     pub far_search_resolution_m: f64,

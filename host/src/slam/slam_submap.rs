@@ -4,7 +4,7 @@
 
 use super::point_map::{PointMap, PointMapOptions};
 use crate::geometry::Pose2;
-use crate::grid::{Submap, SubmapOptions};
+use crate::grid::{CellIndex, Submap, SubmapOptions};
 use crate::scan_match::Scan;
 
 /// How well a scan placed in a submap agrees with it.
@@ -24,18 +24,37 @@ pub struct SubmapFit {
     pub surface_fraction: f64,
     /// [`Self::free_fraction`] weighted by range, as [`Self::surface_fraction`].
     pub free_surface_fraction: f64,
+    /// The share of the scanned surface (weighted by range, as [`Self::surface_fraction`])
+    /// whose beam passes through a surface the submap holds, well short of its end point: a
+    /// beam through a wall, which a right pose does not produce either. It is the other side
+    /// of [`Self::free_surface_fraction`]: a pose short of the truth along a corridor puts end
+    /// points where the submap saw free space, one beyond it sends beams through the walls
+    /// the submap saw.
+    pub through_surface_fraction: f64,
 }
 
 impl SubmapFit {
     /// How well the scan fits, for choosing between poses: the share of its surface on the
-    /// submap's surfaces, less `free_weight` times the share on cells the submap has seen free.
+    /// submap's surfaces, less `free_weight` times the share that contradicts it (on cells it
+    /// has seen free, or seen through its surfaces).
     pub fn tracking_score(&self, free_weight: f64) -> f64 {
-        self.surface_fraction - free_weight * self.free_surface_fraction
+        self.surface_fraction
+            - free_weight * (self.free_surface_fraction + self.through_surface_fraction)
     }
 }
 
 /// Cells below this occupancy probability count as seen free.
 const FREE_PROBABILITY: f32 = 0.4;
+
+/// Cells at or above this occupancy probability count as a surface a beam cannot pass: hit
+/// more often than seen free, by more than a single stray return (one hit alone makes 0.9
+/// with the pipeline's grid options).
+const SURFACE_PROBABILITY: f32 = 0.95;
+
+/// A beam counts as passing through a surface only short of its end point by this many
+/// inlier distances: near the end point the wall it hit, thickened by noise, is no
+/// contradiction.
+const THROUGH_MARGIN_INLIERS: f64 = 3.0;
 
 /// One submap of the trajectory. Its frame is the local pose of its first scan, so a scan's
 /// pose in the submap is also its pose relative to that first node.
@@ -135,10 +154,17 @@ impl SlamSubmap {
         let grid = self.submap.grid();
         let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
         let (mut range_sum_m, mut inlier_range_m, mut free_range_m) = (0.0, 0.0, 0.0);
+        let mut through_range_m = 0.0;
+        let origin = grid
+            .limits()
+            .cell_index([submap_from_robot.x_m, submap_from_robot.y_m]);
         for &p in points_in_robot {
             let range_m = p[0].hypot(p[1]);
             range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
+            if self.beam_passes_a_surface(origin, p, range_m, submap_from_robot, inlier_m) {
+                through_range_m += range_m;
+            }
             let inlier = self.is_inlier(point, inlier_m);
             if inlier {
                 inliers += 1;
@@ -166,7 +192,31 @@ impl SlamSubmap {
             mean_probability: probability_sum / n,
             surface_fraction: surface(inlier_range_m),
             free_surface_fraction: surface(free_range_m),
+            through_surface_fraction: surface(through_range_m),
         }
+    }
+
+    /// Whether the beam to `point_in_robot` (at `range_m`), from the robot's cell `origin`
+    /// with the robot at `submap_from_robot`, crosses a cell the submap holds as a surface
+    /// before it comes within [`THROUGH_MARGIN_INLIERS`] × `inlier_m` of its end point.
+    fn beam_passes_a_surface(
+        &self,
+        origin: CellIndex,
+        point_in_robot: [f64; 2],
+        range_m: f64,
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+    ) -> bool {
+        let short_m = range_m - THROUGH_MARGIN_INLIERS * inlier_m;
+        if short_m <= 0.0 {
+            return false;
+        }
+        let scale = short_m / range_m;
+        let short_point = submap_from_robot
+            .transform_point([point_in_robot[0] * scale, point_in_robot[1] * scale]);
+        let grid = self.submap.grid();
+        let end = grid.limits().cell_index(short_point);
+        grid.line_reaches_probability(origin, end, SURFACE_PROBABILITY)
     }
 
     /// [`SubmapFit::inlier_fraction`] of [`Self::fit`], to the bit, without the grid.
@@ -256,6 +306,36 @@ mod tests {
             "{fit:?}"
         );
         assert!((fit.tracking_score(0.5) - (1.0 - 0.5 * 9.5) / 10.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_pose_beyond_the_truth_sends_beams_through_the_walls() {
+        // A corridor 2 m wide along x, closed 10 m ahead, seen from its start.
+        // Seen from 20 poses along it, so that the far wall is drawn without gaps between
+        // the beams' end points (as a real submap's, of many scans), into a grid built as the pipeline builds its submaps.
+        let walls = polygon_walls(&[[-1.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-1.0, 1.0]]);
+        let options = crate::slam::SlamOptions::default();
+        let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
+        for node in 0..20 {
+            // Turned by fifths of the beams' spacing, so the end points interleave.
+            let turn_rad = ((node % 5) as f64 * 0.2).to_radians();
+            let pose = Pose2::new(-0.5 + 0.05 * node as f64, 0.0, turn_rad);
+            submap.insert(node, &cast_front_scan(&walls, pose), pose);
+        }
+        let scan = cast_front_scan(&walls, Pose2::IDENTITY);
+        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
+        let fit_at = |x_m: f64| submap.fit(&points, Pose2::new(x_m, 0.0, 0.0), 0.1);
+        let (short, right, beyond) = (fit_at(-1.0), fit_at(0.0), fit_at(1.0));
+        assert!(right.through_surface_fraction < 0.02, "{right:?}");
+        assert!(right.free_surface_fraction < 0.1, "{right:?}");
+        // A metre beyond: the end wall's beams pass through the end wall the submap holds.
+        assert!(beyond.through_surface_fraction > 0.2, "{beyond:?}");
+        // A metre short: its end points lie where the submap saw free space instead.
+        assert!(short.free_surface_fraction > 0.2, "{short:?}");
+        assert!(short.through_surface_fraction < 0.05, "{short:?}");
+        let score = |fit: SubmapFit| fit.tracking_score(0.5);
+        assert!(score(right) > score(beyond) + 0.3, "{right:?} {beyond:?}");
+        assert!(score(right) > score(short) + 0.3, "{right:?} {short:?}");
     }
 
     #[test]
