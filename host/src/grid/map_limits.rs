@@ -123,6 +123,66 @@ impl MapLimits {
         self.contains(cell)
             .then(|| cell[1] as usize * self.width_cells + cell[0] as usize)
     }
+
+    /// The storage positions ([`Self::linear_index`]) of the cells of the Bresenham line from
+    /// `from` to `to`, both included, in the order of [`BresenhamLine`]'s cells; `None` unless
+    /// both ends lie in the grid (then so does every cell between them, and one check of the
+    /// ends serves the whole line).
+    ///
+    /// [`BresenhamLine`]: crate::scan_match::BresenhamLine
+    pub fn line_indices(&self, from: CellIndex, to: CellIndex) -> Option<LineIndices> {
+        let (Some(from_index), Some(_)) = (self.linear_index(from), self.linear_index(to)) else {
+            return None;
+        };
+        let delta_x = (i64::from(to[0]) - i64::from(from[0])).abs();
+        let delta_y = -(i64::from(to[1]) - i64::from(from[1])).abs();
+        // Grid dimensions fit in memory, so a row's stride fits an `isize`.
+        Some(LineIndices {
+            index: from_index as isize,
+            step_x: (to[0] - from[0]).signum() as isize,
+            step_y: (to[1] - from[1]).signum() as isize * self.width_cells as isize,
+            delta_x,
+            delta_y,
+            error: delta_x + delta_y,
+            remaining: delta_x.max(-delta_y) as usize + 1,
+        })
+    }
+}
+
+/// The storage positions of a line's cells ([`MapLimits::line_indices`]): Bresenham's
+/// all-octant integer form, stepping through row-major storage.
+#[derive(Clone, Debug)]
+pub struct LineIndices {
+    index: isize,
+    step_x: isize,
+    step_y: isize,
+    delta_x: i64,
+    /// Minus the absolute row extent, as in the textbook form of the algorithm.
+    delta_y: i64,
+    error: i64,
+    remaining: usize,
+}
+
+impl Iterator for LineIndices {
+    type Item = usize;
+
+    fn next(&mut self) -> Option<usize> {
+        if self.remaining == 0 {
+            return None;
+        }
+        self.remaining -= 1;
+        let index = self.index as usize;
+        let twice_error = 2 * self.error;
+        if twice_error >= self.delta_y {
+            self.error += self.delta_y;
+            self.index += self.step_x;
+        }
+        if twice_error <= self.delta_x {
+            self.error += self.delta_x;
+            self.index += self.step_y;
+        }
+        Some(index)
+    }
 }
 
 #[cfg(test)]

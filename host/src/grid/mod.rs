@@ -21,7 +21,7 @@ mod range_inserter;
 mod submap;
 
 pub use map_export::{FREE_PIXEL, MapExport, MapExportOptions, OCCUPIED_PIXEL, UNKNOWN_PIXEL};
-pub use map_limits::{CellIndex, MapLimits};
+pub use map_limits::{CellIndex, LineIndices, MapLimits};
 pub use probability_grid::{MAX_SIDE_CELLS, ProbabilityGrid, ProbabilityGridOptions};
 pub use range_inserter::{RangeInserter, RangeInserterOptions};
 pub use submap::{Submap, SubmapFinishedError, SubmapOptions};

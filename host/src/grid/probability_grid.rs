@@ -179,35 +179,11 @@ impl ProbabilityGrid {
     ) -> bool {
         // Compared in log-odds (NaN, unknown, compares false), so no cell is converted.
         let min_log_odds = log_odds_from_probability(min_probability);
-        let (Some(from_index), Some(_)) =
-            (self.limits.linear_index(from), self.limits.linear_index(to))
-        else {
-            return BresenhamLine::new(from, to)
-                .any(|cell| self.log_odds(cell).is_some_and(|l| l >= min_log_odds));
-        };
-        // Both ends inside, so every cell between them is: walked by storage index.
-        let delta_x = (i64::from(to[0]) - i64::from(from[0])).abs();
-        let delta_y = -(i64::from(to[1]) - i64::from(from[1])).abs();
-        let step_x = (to[0] - from[0]).signum() as isize;
-        let step_y = (to[1] - from[1]).signum() as isize * self.limits.width_cells() as isize;
-        let num_cells = delta_x.max(-delta_y) + 1;
-        let mut error = delta_x + delta_y;
-        let mut index = from_index as isize;
-        for _ in 0..num_cells {
-            if self.log_odds[index as usize] >= min_log_odds {
-                return true;
-            }
-            let twice_error = 2 * error;
-            if twice_error >= delta_y {
-                error += delta_y;
-                index += step_x;
-            }
-            if twice_error <= delta_x {
-                error += delta_x;
-                index += step_y;
-            }
+        match self.limits.line_indices(from, to) {
+            Some(mut indices) => indices.any(|i| self.log_odds[i] >= min_log_odds),
+            None => BresenhamLine::new(from, to)
+                .any(|cell| self.log_odds(cell).is_some_and(|l| l >= min_log_odds)),
         }
-        false
     }
 
     /// True if `cell` lies inside the grid and has been observed.

@@ -232,10 +232,10 @@ impl UpdateMarks {
     /// line from `from` to `to` ([`BresenhamLine`]'s cells, in its order) that this scan has
     /// not updated yet.
     ///
-    /// The line is walked by storage index: when both ends lie in the grid, so does every
-    /// cell between them, and one check of the ends serves the whole ray. A ray reaching
-    /// beyond a grid that could not grow to hold it ([`MAX_SIDE_CELLS`]) is walked cell by
-    /// cell.
+    /// The line is walked by storage index
+    /// ([`MapLimits::line_indices`](super::MapLimits::line_indices)) when both ends lie in the
+    /// grid. A ray reaching beyond a grid that could not grow to hold it ([`MAX_SIDE_CELLS`])
+    /// is walked cell by cell.
     fn update_ray_once(
         &mut self,
         grid: &mut ProbabilityGrid,
@@ -244,38 +244,19 @@ impl UpdateMarks {
         num_cells: usize,
         delta_log_odds: f32,
     ) {
-        let limits = *grid.limits();
-        let (Some(from_index), Some(_)) = (limits.linear_index(from), limits.linear_index(to))
-        else {
+        let Some(indices) = grid.limits().line_indices(from, to) else {
             for cell in BresenhamLine::new(from, to).take(num_cells) {
                 self.update_once(grid, cell, delta_log_odds);
             }
             return;
         };
-        let delta_x = (i64::from(to[0]) - i64::from(from[0])).abs();
-        let delta_y = -(i64::from(to[1]) - i64::from(from[1])).abs();
-        // Grid dimensions fit in memory, so a row's stride fits an `isize`.
-        let step_x = (to[0] - from[0]).signum() as isize;
-        let step_y = (to[1] - from[1]).signum() as isize * limits.width_cells() as isize;
-        let mut error = delta_x + delta_y;
-        let mut index = from_index as isize;
         let scan_number = self.scan_number;
         let (log_odds, bounds) = grid.log_odds_mut();
         let marks = &mut self.updated_in_scan;
-        for _ in 0..num_cells {
-            let cell = index as usize;
+        for cell in indices.take(num_cells) {
             if marks[cell] != scan_number {
                 marks[cell] = scan_number;
                 log_odds[cell] = bounds.updated(log_odds[cell], delta_log_odds);
-            }
-            let twice_error = 2 * error;
-            if twice_error >= delta_y {
-                error += delta_y;
-                index += step_x;
-            }
-            if twice_error <= delta_x {
-                error += delta_x;
-                index += step_y;
             }
         }
     }
