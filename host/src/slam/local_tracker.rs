@@ -516,6 +516,37 @@ mod tests {
     }
 
     #[test]
+    fn a_step_of_metres_after_standing_still_is_found_along_a_corridor() {
+        // A corridor 2 m wide with a door recess, closed 12 m ahead. The robot drives, stands
+        // still, then drives 2 m between two scans: twice the wide search's reach from both
+        // the prediction (standing still) and the last pose. The far search runs although
+        // the pose the wide search finds fits most of the surface.
+        let walls = crate::scan_match::synthetic::polygon_walls(&[
+            [-1.0, -1.0],
+            [4.0, -1.0],
+            [4.0, -1.6],
+            [5.0, -1.6],
+            [5.0, -1.0],
+            [12.0, -1.0],
+            [12.0, 1.0],
+            [-1.0, 1.0],
+        ]);
+        let mut tracker = LocalTracker::new(SlamOptions::default()).unwrap();
+        let mut tracked = None;
+        for x_m in [0.0, 0.3, 0.6, 0.6, 0.6, 0.6, 2.6] {
+            let scan = cast_front_scan(&walls, Pose2::new(x_m, 0.0, 0.0));
+            tracked = Some(tracker.track(0.0, &scan, None));
+        }
+        let tracked = tracked.expect("tracked");
+        assert!(tracked.searched_far, "{tracked:?}");
+        let pose = tracked.pose_in_local;
+        assert!(
+            (pose.x_m - 2.6).abs() < 0.1 && pose.y_m.abs() < 0.1,
+            "{pose:?}"
+        );
+    }
+
+    #[test]
     fn a_turn_back_beyond_the_search_window_is_found() {
         // A turn of -30° and then one of +62° on the spot: the second lies outside the
         // ±45° window around both the repeated motion and standing still.
