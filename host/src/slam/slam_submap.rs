@@ -310,9 +310,9 @@ mod tests {
 
     #[test]
     fn a_pose_beyond_the_truth_sends_beams_through_the_walls() {
-        // A corridor 2 m wide along x, closed 10 m ahead, seen from its start.
-        // Seen from 20 poses along it, so that the far wall is drawn without gaps between
-        // the beams' end points (as a real submap's, of many scans), into a grid built as the pipeline builds its submaps.
+        // A corridor 2 m wide along x, closed 10 m ahead, seen from 20 poses near its start,
+        // so that the far wall is drawn without gaps between the beams' end points (as in a
+        // real submap of many scans), into a grid built as the pipeline builds its submaps.
         let walls = polygon_walls(&[[-1.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-1.0, 1.0]]);
         let options = crate::slam::SlamOptions::default();
         let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
