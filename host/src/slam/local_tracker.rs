@@ -27,9 +27,10 @@
 //! candidate still scores nothing is refused. When three of the prior's standard deviations
 //! reach beyond the wide search's window (with the defaults, always), a search over
 //! [`LocalTrackingOptions::far_search_window_m`] follows the wide one, whatever the fit,
-//! unless no pose that far from the prediction could pay the prior's penalty. A scan no candidate placed keeps its
-//! predicted pose and is flagged lost ([`TrackedScan::lost`]); its constraint to the scan
-//! before carries the prior's uncertainty, so that a loop closure can undo it.
+//! unless no pose that far from the prediction could pay the prior's penalty. A scan no
+//! candidate placed keeps its predicted pose and is flagged lost ([`TrackedScan::lost`]); its
+//! constraint to the scan before carries the prior's uncertainty, so that a loop closure can
+//! undo it.
 //!
 //! The pose found goes into both active submaps when the [`MotionFilter`] admits the scan (the
 //! robot moved or turned enough since the last scan inserted); the older is finished when the
