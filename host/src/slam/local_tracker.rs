@@ -301,7 +301,7 @@ impl LocalTracker {
         let guess = submap_in_local.inverse() * guess_in_local;
         let icp = &self.options.local.icp;
         let found = align(submap.points(), points, guess, icp)?;
-        let fit = submap.fit(points, found.map_from_robot, icp.inlier_m);
+        let fit = submap.tracking_fit(points, found.map_from_robot, icp.inlier_m);
         let pose_in_local = submap_in_local * found.map_from_robot;
         let score = fit.tracking_score(self.options.local.free_weight)
             - self.prior.penalty(predicted, pose_in_local);

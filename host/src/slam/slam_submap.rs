@@ -29,7 +29,8 @@ pub struct SubmapFit {
     /// beam through a wall, which a right pose does not produce either. It is the other side
     /// of [`Self::free_surface_fraction`]: a pose short of the truth along a corridor puts end
     /// points where the submap saw free space, one beyond it sends beams through the walls
-    /// the submap saw.
+    /// the submap saw. Only [`SlamSubmap::tracking_fit`] walks the beams; [`SlamSubmap::fit`]
+    /// leaves it 0.
     pub through_surface_fraction: f64,
 }
 
@@ -141,12 +142,35 @@ impl SlamSubmap {
     }
 
     /// How `points_in_robot` (end points, robot frame), placed at `submap_from_robot`, agree
-    /// with the submap; an end point within `inlier_m` of a submap point is an inlier.
+    /// with the submap; an end point within `inlier_m` of a submap point is an inlier. Judges
+    /// the end points only ([`SubmapFit::through_surface_fraction`] is 0): what loop closure's
+    /// acceptance test and the final refinement read.
     pub fn fit(
         &self,
         points_in_robot: &[[f64; 2]],
         submap_from_robot: Pose2,
         inlier_m: f64,
+    ) -> SubmapFit {
+        self.fit_with_beams(points_in_robot, submap_from_robot, inlier_m, false)
+    }
+
+    /// [`Self::fit`] with the beams walked too ([`SubmapFit::through_surface_fraction`]), for
+    /// [`SubmapFit::tracking_score`].
+    pub fn tracking_fit(
+        &self,
+        points_in_robot: &[[f64; 2]],
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+    ) -> SubmapFit {
+        self.fit_with_beams(points_in_robot, submap_from_robot, inlier_m, true)
+    }
+
+    fn fit_with_beams(
+        &self,
+        points_in_robot: &[[f64; 2]],
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+        walk_beams: bool,
     ) -> SubmapFit {
         if points_in_robot.is_empty() {
             return SubmapFit::default();
@@ -162,7 +186,9 @@ impl SlamSubmap {
             let range_m = p[0].hypot(p[1]);
             range_sum_m += range_m;
             let point = submap_from_robot.transform_point(p);
-            if self.beam_passes_a_surface(origin, p, range_m, submap_from_robot, inlier_m) {
+            if walk_beams
+                && self.beam_passes_a_surface(origin, p, range_m, submap_from_robot, inlier_m)
+            {
                 through_range_m += range_m;
             }
             let inlier = self.is_inlier(point, inlier_m);
@@ -324,7 +350,7 @@ mod tests {
         }
         let scan = cast_front_scan(&walls, Pose2::IDENTITY);
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
-        let fit_at = |x_m: f64| submap.fit(&points, Pose2::new(x_m, 0.0, 0.0), 0.1);
+        let fit_at = |x_m: f64| submap.tracking_fit(&points, Pose2::new(x_m, 0.0, 0.0), 0.1);
         let (short, right, beyond) = (fit_at(-1.0), fit_at(0.0), fit_at(1.0));
         assert!(right.through_surface_fraction < 0.02, "{right:?}");
         assert!(right.free_surface_fraction < 0.1, "{right:?}");
