@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use super::edge::EdgeId;
 use super::node::NodeId;
 
 /// Why a pose-graph operation failed.
@@ -9,6 +10,8 @@ use super::node::NodeId;
 pub enum PoseGraphError {
     /// An edge or a request names a node the graph does not have.
     MissingNode(NodeId),
+    /// A request names an edge the graph does not have.
+    MissingEdge(EdgeId),
     /// An edge joins a node to itself.
     SelfLoop(NodeId),
     /// A pose, a measurement, an information matrix, a kernel parameter or the cost is NaN or
@@ -33,6 +36,7 @@ impl fmt::Display for PoseGraphError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             PoseGraphError::MissingNode(node) => write!(f, "the pose graph has no {node}"),
+            PoseGraphError::MissingEdge(edge) => write!(f, "the pose graph has no edge {}", edge.0),
             PoseGraphError::SelfLoop(node) => write!(f, "an edge joins {node} to itself"),
             PoseGraphError::NonFinite(what) => write!(f, "{what} is not finite"),
             PoseGraphError::InvalidInformation => {

@@ -15,6 +15,7 @@ use super::error::PoseGraphError;
 use super::node::{Node, NodeId};
 use super::normal_equations::NormalEquations;
 use super::optimizer::{OptimizeOptions, OptimizeReport, levenberg_marquardt, total_cost};
+use super::robust_kernel::RobustKernel;
 use crate::geometry::Pose2;
 
 /// Robot poses and the relative-pose constraints between them.
@@ -84,6 +85,30 @@ impl PoseGraph {
             entry.fixed = fixed;
             self.system = None;
         }
+        Ok(())
+    }
+
+    /// Gives `edge` the robust `kernel` (`None`: the plain squared error), for instance to let
+    /// a constraint the graph cannot yet agree with pull with its full weight for one
+    /// optimisation. The layout of the normal equations is kept.
+    ///
+    /// # Errors
+    ///
+    /// [`PoseGraphError::MissingEdge`] if the graph has no such edge,
+    /// [`PoseGraphError::InvalidKernel`] or [`PoseGraphError::NonFinite`] for an invalid kernel.
+    pub fn set_kernel(
+        &mut self,
+        edge: EdgeId,
+        kernel: Option<RobustKernel>,
+    ) -> Result<(), PoseGraphError> {
+        if let Some(kernel) = kernel {
+            kernel.validate()?;
+        }
+        let entry = self
+            .edges
+            .get_mut(edge.0)
+            .ok_or(PoseGraphError::MissingEdge(edge))?;
+        entry.kernel = kernel;
         Ok(())
     }
 
@@ -243,6 +268,34 @@ mod tests {
                 (node.pose_in_map.x_m - truth.x_m).hypot(node.pose_in_map.y_m - truth.y_m)
             })
             .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn an_edge_s_kernel_can_be_taken_off_and_put_back() {
+        let mut graph = PoseGraph::new();
+        let a = graph.add_node(Pose2::IDENTITY).unwrap();
+        let b = graph.add_node(Pose2::new(1.0, 0.0, 0.0)).unwrap();
+        let information = Edge::information_from_std_devs(0.1, 0.1, 0.1);
+        // Measured 3 m where the poses say 1 m: χ² 400, far out in the kernel's tail.
+        let edge = Edge::new(a, b, Pose2::new(3.0, 0.0, 0.0), information)
+            .with_kernel(RobustKernel::Dcs { phi: 1.0 });
+        let id = graph.add_edge(edge).unwrap();
+        let robust_cost = graph.cost();
+        graph.set_kernel(id, None).unwrap();
+        assert!((graph.cost() - 400.0).abs() < 1e-9);
+        assert!(robust_cost < 10.0);
+        graph
+            .set_kernel(id, Some(RobustKernel::Dcs { phi: 1.0 }))
+            .unwrap();
+        assert_eq!(graph.cost(), robust_cost);
+        assert_eq!(
+            graph.set_kernel(EdgeId(1), None),
+            Err(PoseGraphError::MissingEdge(EdgeId(1)))
+        );
+        assert_eq!(
+            graph.set_kernel(id, Some(RobustKernel::Dcs { phi: 0.0 })),
+            Err(PoseGraphError::InvalidKernel)
+        );
     }
 
     #[test]

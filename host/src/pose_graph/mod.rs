@@ -10,6 +10,7 @@
 //! * [`PoseGraph`], [`Node`], [`NodeId`]: the graph and its pose variables.
 //! * [`Edge`], [`EdgeId`]: a relative-pose constraint and its SE(2) error.
 //! * [`RobustKernel`]: Huber and Cauchy costs for constraints that may be wrong.
+//! * [`relative_covariances`]: how uncertain one node's pose is relative to every other.
 //! * [`OptimizeOptions`], [`OptimizeReport`]: how to iterate and what happened.
 //! * [`PoseGraphError`]: why an input was refused or optimisation failed.
 //! * [`synthetic`]: graphs with known true poses, for tests and benchmarks.
@@ -20,6 +21,7 @@ mod graph;
 mod node;
 mod normal_equations;
 mod optimizer;
+mod relative_covariance;
 mod robust_kernel;
 pub mod synthetic;
 
@@ -28,4 +30,5 @@ pub use error::PoseGraphError;
 pub use graph::PoseGraph;
 pub use node::{Node, NodeId};
 pub use optimizer::{OptimizeOptions, OptimizeReport};
+pub use relative_covariance::relative_covariances;
 pub use robust_kernel::RobustKernel;

@@ -12,7 +12,7 @@ use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
-use crate::pose_graph::{Edge, EdgeId, NodeId, PoseGraph};
+use crate::pose_graph::{Edge, EdgeId, NodeId, PoseGraph, relative_covariances};
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
@@ -34,6 +34,9 @@ pub struct SlamStats {
     pub submaps: usize,
     /// Scan-in-submap searches for loop closure.
     pub loop_closure_searches: usize,
+    /// Of those, the searches over the wide window of a pose too uncertain for the usual one
+    /// ([`super::UncertainClosureOptions`]).
+    pub uncertain_closure_searches: usize,
     /// Loop-closure constraints added (chain closures included).
     pub loop_closures: usize,
     /// Loop closures found and rejected: no second one agreed with them on the motion local
@@ -47,6 +50,11 @@ pub struct SlamStats {
     pub chain_closure_searches: usize,
     /// Of the loop-closure constraints, those found in a chain of earlier scans.
     pub chain_closures: usize,
+    /// Loop closures that the graph held far from where they put the scan, yet within the
+    /// uncertainty of the scan's pose relative to the submap: each was solved once without
+    /// the robust kernel, which would have switched it off before it could pull
+    /// ([`GraphSlam`]'s `add_constraint`).
+    pub closures_within_uncertainty: usize,
     /// Constraints added by the final refinement.
     pub refinement_constraints: usize,
     /// Pose-graph optimisations run.
@@ -107,6 +115,10 @@ pub struct GraphSlam {
     scan_in_node: Vec<(usize, Pose2)>,
     /// Finished submaps with their matcher references.
     finished: Vec<(SlamSubmap, PreparedReference)>,
+    /// Searches a submap over the wide window of an uncertain pose.
+    uncertain_closer: LoopCloser,
+    /// For every finished submap, the node last searched in it by `uncertain_closer`.
+    last_uncertain_search: Vec<usize>,
     /// `map_from_local` as of the last optimisation.
     map_from_local: Pose2,
     closures_since_optimization: usize,
@@ -118,6 +130,9 @@ pub struct GraphSlam {
     scans: Vec<Scan>,
     /// The loop-closure and refinement constraints in the graph.
     closure_edges: Vec<EdgeId>,
+    /// Constraints added without their robust kernel, which they receive after the next
+    /// optimisation.
+    unrobust_edges: Vec<EdgeId>,
     stats: SlamStats,
 }
 
@@ -135,12 +150,15 @@ impl GraphSlam {
             lost: Vec::new(),
             scan_in_node: Vec::new(),
             finished: Vec::new(),
+            uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
+            last_uncertain_search: Vec::new(),
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
             chains: ChainCloser::new(&options)?,
             scans: Vec::new(),
             closure_edges: Vec::new(),
+            unrobust_edges: Vec::new(),
             stats: SlamStats::default(),
             options,
         })
@@ -205,14 +223,23 @@ impl GraphSlam {
             self.stats.submaps += 1;
             let reference = self.closer.prepare(&submap.reference_scan());
             self.finished.push((submap, reference));
+            self.last_uncertain_search.push(0);
         }
         let every = self.options.loop_closure.every_n_scans.max(1);
         if self.options.loop_closure.enabled {
-            let taken = node.is_multiple_of(every) && self.close_loops(node, &scan, pose_in_map);
+            let searched = node.is_multiple_of(every);
+            let (taken, beyond_window) = if searched {
+                self.close_loops(node, &scan, pose_in_map)
+            } else {
+                (false, Vec::new())
+            };
             // Every scan is searched while a chain closure waits for its confirmation.
-            let due = node.is_multiple_of(every) || self.chains.awaits_confirmation(node);
+            let due = searched || self.chains.awaits_confirmation(node);
             if self.options.chain_closure.enabled && due && !taken {
                 self.close_loops_in_chain(node, &scan, pose_in_map);
+            }
+            if self.options.uncertain_closure.enabled && !taken {
+                self.close_loops_beyond_window(node, &scan, beyond_window);
             }
         }
         self.scans.push(scan);
@@ -297,10 +324,26 @@ impl GraphSlam {
     }
 
     /// Searches the finished submaps near `pose_in_map` for the scan of `node`; whether a
-    /// submap took it (confirmed or not).
-    fn close_loops(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) -> bool {
+    /// submap took it (confirmed or not), and the submaps to search over a wider window
+    /// ([`Self::close_loops_beyond_window`]) if none did.
+    ///
+    /// A submap is near when its frame lies within [`LoopClosureOptions::max_distance_m`]
+    /// plus the reach ([`LoopClosureOptions::gate_sigmas`] standard deviations) of the
+    /// scan's pose relative to it, as far as the window reaches. Where the reach goes beyond
+    /// the window, the submap is also one to search wider.
+    ///
+    /// [`LoopClosureOptions::max_distance_m`]: super::LoopClosureOptions::max_distance_m
+    /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
+    fn close_loops(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        pose_in_map: Pose2,
+    ) -> (bool, Vec<SubmapGuess>) {
         let options = self.closer.options().clone();
-        let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
+        let covariances = relative_covariances(&self.graph, NodeId(node));
+        let mut near: Vec<SubmapGuess> = Vec::new();
+        let mut beyond_window: Vec<SubmapGuess> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
             if submap.last_node() + options.min_scans_apart > node {
                 continue;
@@ -308,32 +351,91 @@ impl GraphSlam {
             let Some(submap_in_map) = self.node_pose_in_map(submap.first_node()) else {
                 continue;
             };
-            let guess = submap_in_map.inverse() * pose_in_map;
-            let distance_m = guess.x_m.hypot(guess.y_m);
-            if distance_m <= options.max_distance_m {
-                candidates.push((distance_m, index, guess));
+            let guess_in_submap = submap_in_map.inverse() * pose_in_map;
+            let distance_m = guess_in_submap.x_m.hypot(guess_in_submap.y_m);
+            let [reach_m, reach_rad] = covariances
+                .get(submap.first_node())
+                .copied()
+                .flatten()
+                .map_or([0.0; 2], |covariance| {
+                    reach(&covariance, options.gate_sigmas)
+                });
+            let guess = SubmapGuess {
+                distance_m,
+                submap: index,
+                guess_in_submap,
+            };
+            if distance_m <= options.max_distance_m + reach_m.min(options.search_window_m) {
+                near.push(guess);
+            }
+            let fits_window =
+                reach_m <= options.search_window_m && reach_rad <= options.search_window_rad;
+            if !fits_window && distance_m <= options.max_distance_m + reach_m {
+                beyond_window.push(guess);
             }
         }
-        candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
+        near.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m));
         let mut taken = false;
-        for (_, index, guess) in candidates {
-            let (submap, reference) = &self.finished[index];
+        for guess in near {
+            let (submap, reference) = &self.finished[guess.submap];
             self.stats.loop_closure_searches += 1;
-            let Some(closure) = self.closer.search(submap, reference, scan, guess) else {
-                continue;
-            };
-            taken = true;
-            let found = FoundClosure {
-                submap_first_node: submap.first_node(),
-                node,
-                pose_in_submap: closure.pose_in_submap,
-                information_in_robot: Some(closure.information_in_robot),
-            };
-            for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
-                self.add_closure(confirmed);
-            }
+            let closure = self
+                .closer
+                .search(submap, reference, scan, guess.guess_in_submap);
+            taken |= self.offer_closure(node, guess.submap, closure);
         }
-        taken
+        (taken, beyond_window)
+    }
+
+    /// Searches the scan of `node` over the uncertain closer's wide window in a few of
+    /// `beyond_window` (those searched that way longest ago first, then the nearest), and
+    /// adds what is confirmed ([`super::UncertainClosureOptions`]).
+    fn close_loops_beyond_window(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        mut beyond_window: Vec<SubmapGuess>,
+    ) {
+        beyond_window.sort_by(|a, b| {
+            let last = |guess: &SubmapGuess| self.last_uncertain_search[guess.submap];
+            last(a)
+                .cmp(&last(b))
+                .then(a.distance_m.total_cmp(&b.distance_m))
+        });
+        let budget = self.options.uncertain_closure.max_searches_per_scan;
+        for guess in beyond_window.into_iter().take(budget) {
+            self.last_uncertain_search[guess.submap] = node;
+            self.stats.loop_closure_searches += 1;
+            self.stats.uncertain_closure_searches += 1;
+            let submap = &self.finished[guess.submap].0;
+            let closure =
+                self.uncertain_closer
+                    .search_around_guess(submap, scan, guess.guess_in_submap);
+            self.offer_closure(node, guess.submap, closure);
+        }
+    }
+
+    /// Offers what the search of the scan of `node` in finished submap `index` found to the
+    /// confirmation, and adds what it confirms; whether the search found anything.
+    fn offer_closure(
+        &mut self,
+        node: usize,
+        index: usize,
+        closure: Option<super::loop_closer::LoopClosure>,
+    ) -> bool {
+        let Some(closure) = closure else {
+            return false;
+        };
+        let found = FoundClosure {
+            submap_first_node: self.finished[index].0.first_node(),
+            node,
+            pose_in_submap: closure.pose_in_submap,
+            information_in_robot: Some(closure.information_in_robot),
+        };
+        for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
+            self.add_closure(confirmed);
+        }
+        true
     }
 
     /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
@@ -391,20 +493,54 @@ impl GraphSlam {
     }
 
     /// Adds `closure` to the graph as a robust constraint; whether it was added.
+    ///
+    /// A robust kernel judges a constraint by how far the graph holds it from what it
+    /// measured, at the graph's current poses: after a long drift a true closure is metres
+    /// off, and the kernel would switch it off before it could pull. So a closure that the
+    /// kernel would weaken, but whose error is within the uncertainty of the scan's pose
+    /// relative to the submap (its χ² against the sum of both covariances within
+    /// [`LoopClosureOptions::max_consistent_chi2`](super::LoopClosureOptions::max_consistent_chi2)),
+    /// is solved once without the kernel, and keeps it from then on.
     fn add_constraint(&mut self, closure: FoundClosure) -> bool {
-        let edge = Edge::new(
-            NodeId(closure.submap_first_node),
-            NodeId(closure.node),
-            closure.pose_in_submap,
-            closure_information(&self.options, closure.information_in_robot.as_ref()),
-        )
-        .with_kernel(self.options.loop_closure_kernel);
+        let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
+        let information = closure_information(&self.options, closure.information_in_robot.as_ref());
+        let kernel = self.options.loop_closure_kernel;
+        let edge = Edge::new(from, to, closure.pose_in_submap, information).with_kernel(kernel);
+        let within_uncertainty = self.is_within_uncertainty(&edge);
         let Ok(id) = self.graph.add_edge(edge) else {
             return false;
         };
+        if within_uncertainty && self.graph.set_kernel(id, None).is_ok() {
+            self.unrobust_edges.push(id);
+            self.stats.closures_within_uncertainty += 1;
+        }
         self.closure_edges.push(id);
         self.closures_since_optimization += 1;
         true
+    }
+
+    /// Whether the kernel would weaken `edge` (not yet in the graph) at the current poses,
+    /// while its error is within the uncertainty of its end's pose relative to its start.
+    fn is_within_uncertainty(&self, edge: &Edge) -> bool {
+        let (Some(from), Some(to)) = (self.graph.node(edge.from), self.graph.node(edge.to)) else {
+            return false;
+        };
+        let chi2 = edge.chi2(from.pose_in_map, to.pose_in_map);
+        if edge.kernel.is_none_or(|kernel| kernel.weight(chi2) >= 1.0) {
+            return false;
+        }
+        let relative = relative_covariances(&self.graph, edge.to)
+            .get(edge.from.0)
+            .copied()
+            .flatten();
+        let Some(combined) = relative
+            .zip(edge.information.try_inverse())
+            .and_then(|(relative, own)| (relative + own).try_inverse())
+        else {
+            return false;
+        };
+        let error = edge.error(from.pose_in_map, to.pose_in_map);
+        error.dot(&(combined * error)) <= self.options.loop_closure.max_consistent_chi2
     }
 
     fn optimize(&mut self) {
@@ -412,9 +548,18 @@ impl GraphSlam {
         self.stats.optimizations += 1;
         if self.graph.optimize(&self.options.optimize).is_err() {
             self.stats.failed_optimizations += 1;
-            return;
         }
         let kernel = self.options.loop_closure_kernel;
+        if !self.unrobust_edges.is_empty() {
+            // Pulled once with full weight; from now on the kernel judges them as any other.
+            for id in std::mem::take(&mut self.unrobust_edges) {
+                let _ = self.graph.set_kernel(id, Some(kernel));
+            }
+            self.stats.optimizations += 1;
+            if self.graph.optimize(&self.options.optimize).is_err() {
+                self.stats.failed_optimizations += 1;
+            }
+        }
         self.stats.switched_off_closures = self
             .closure_edges
             .iter()
@@ -428,6 +573,28 @@ impl GraphSlam {
             self.map_from_local = pose_in_map * pose_in_local.inverse();
         }
     }
+}
+
+/// A finished submap the scan may be found in, and where.
+#[derive(Clone, Copy, Debug)]
+struct SubmapGuess {
+    /// The scan's distance from the submap's frame, metres.
+    distance_m: f64,
+    /// The submap's index among the finished ones.
+    submap: usize,
+    /// The scan's estimated pose in the submap (`submap_from_robot`).
+    guess_in_submap: Pose2,
+}
+
+/// How far `gate_sigmas` standard deviations of a relative pose with `covariance` (x, y,
+/// theta) reach: along the translation's most uncertain direction (m), and in heading (rad).
+fn reach(covariance: &nalgebra::Matrix3<f64>, gate_sigmas: f64) -> [f64; 2] {
+    let (xx, yy, xy) = (covariance[(0, 0)], covariance[(1, 1)], covariance[(0, 1)]);
+    let largest = 0.5 * (xx + yy) + (0.25 * (xx - yy).powi(2) + xy * xy).sqrt();
+    [
+        gate_sigmas * largest.max(0.0).sqrt(),
+        gate_sigmas * covariance[(2, 2)].max(0.0).sqrt(),
+    ]
 }
 
 #[cfg(test)]
@@ -550,6 +717,44 @@ mod tests {
         assert!(error.x_m.hypot(error.y_m) < 0.05, "{error:?}");
         assert!(error.theta_rad.abs() < 1f64.to_radians(), "{error:?}");
         assert!(found.information_in_robot.is_some());
+    }
+
+    #[test]
+    fn a_scan_far_beyond_the_usual_window_is_found_around_its_guess() {
+        let walls = ring_walls();
+        let truth = ring_trajectory(1.1);
+        let scans: Vec<Scan> = truth
+            .iter()
+            .map(|&pose| cast_front_scan(&walls, pose))
+            .collect();
+        let (last, earlier) = scans.split_last().expect("scans");
+        let mut slam = GraphSlam::new(SlamOptions::default()).unwrap();
+        for (k, scan) in earlier.iter().enumerate() {
+            slam.add_scan(k as f64 * 0.1, scan, None);
+        }
+        // The last scan, back near the start, believed 6.3 m and 25° from where it is: in the
+        // first submap, beyond the usual ±3 m and ±30°.
+        let (submap, reference) = &slam.finished[0];
+        let submap_in_map = slam.node_pose_in_map(submap.first_node()).expect("node");
+        let truth_in_submap = submap_in_map.inverse() * truth[0].inverse() * truth[earlier.len()];
+        let guess = truth_in_submap * Pose2::new(-6.0, 2.0, 25f64.to_radians());
+        let scan = slam.options.trusted_beams(last);
+        let error_of = |closure: &super::super::loop_closer::LoopClosure| {
+            let error = truth_in_submap.inverse() * closure.pose_in_submap;
+            (error.x_m.hypot(error.y_m), error.theta_rad.abs())
+        };
+        let usual = slam.closer.search(submap, reference, &scan, guess);
+        assert!(
+            usual.as_ref().is_none_or(|c| error_of(c).0 > 0.5),
+            "{usual:?}"
+        );
+        let found = slam
+            .uncertain_closer
+            .search_around_guess(submap, &scan, guess)
+            .expect("found around the guess");
+        let (error_m, error_rad) = error_of(&found);
+        assert!(error_m < 0.05, "{found:?}");
+        assert!(error_rad < 1f64.to_radians(), "{found:?}");
     }
 
     #[test]

@@ -105,9 +105,67 @@ impl LoopCloser {
             .matcher
             .match_prepared(reference, scan, guess_in_submap)
             .ok()?;
+        self.align_from(submap, scan, found.reference_from_new)
+    }
+
+    /// [`Self::search`] over a window too wide for a raster centred on the submap's frame
+    /// (the uncertain closer's, [`UncertainClosureOptions`](super::UncertainClosureOptions)):
+    /// the submap's scans are drawn on a raster centred on the guess, prepared for this search
+    /// alone. The raster matcher does not count what falls off its raster, so a scan pushed
+    /// to the edge of a wide window would shed its beams there for free; the beams that could
+    /// leave the raster anywhere in the window are left out of the raster search (the
+    /// alignment and the acceptance test use every beam).
+    pub fn search_around_guess(
+        &self,
+        submap: &SlamSubmap,
+        scan: &Scan,
+        guess_in_submap: Pose2,
+    ) -> Option<LoopClosure> {
+        let submap_from_centre = Pose2::new(guess_in_submap.x_m, guess_in_submap.y_m, 0.0);
+        let centre_from_submap = submap_from_centre.inverse();
+        let reference_in_centre = Scan::from_points_in_robot(
+            submap
+                .reference_scan()
+                .points_in_robot()
+                .iter()
+                .map(|p| p.map(|p| centre_from_submap.transform_point(p)))
+                .collect(),
+        );
+        let reference = self.matcher.prepare(&reference_in_centre);
+        let options = &self.options;
+        let raster_half_m = 0.5 * f64::from(options.raster_side_px) * options.search_resolution_m;
+        let max_range_m = raster_half_m - options.search_window_m * std::f64::consts::SQRT_2;
+        let near_beams = Scan::from_points_in_robot(
+            scan.points_in_robot()
+                .iter()
+                .map(|p| p.filter(|p| p[0].hypot(p[1]) <= max_range_m))
+                .collect(),
+        );
+        let found = self
+            .matcher
+            .match_prepared(
+                &reference,
+                &near_beams,
+                centre_from_submap * guess_in_submap,
+            )
+            .ok()?;
+        let candidate =
+            self.align_from(submap, scan, submap_from_centre * found.reference_from_new)?;
+        self.accept(submap, &candidate)
+    }
+
+    /// Aligns `scan` on the submap's points from `start_in_submap` (`submap_from_robot`);
+    /// `None` when the alignment fails or leaves too few end points on the submap's surfaces
+    /// for [`Self::accept`] to take it.
+    fn align_from(
+        &self,
+        submap: &SlamSubmap,
+        scan: &Scan,
+        start_in_submap: Pose2,
+    ) -> Option<AlignedCandidate> {
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         let icp = &self.options.icp;
-        let aligned = align(submap.points(), &points, found.reference_from_new, icp)?;
+        let aligned = align(submap.points(), &points, start_in_submap, icp)?;
         let inlier_fraction = submap.inlier_fraction(&points, aligned.map_from_robot, icp.inlier_m);
         (inlier_fraction >= self.options.min_inlier_fraction).then(|| AlignedCandidate {
             points_in_robot: points,

@@ -15,7 +15,11 @@
 //!   last node.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
-//!   then aligned on the submap's points; a match good enough becomes a constraint. A scan
+//!   then aligned on the submap's points; a match good enough becomes a constraint. Which
+//!   submaps are near, and how wide the window must be, follows from how uncertain the scan's
+//!   pose is relative to each submap, compounded along the pose graph
+//!   ([`crate::pose_graph::relative_covariances`]); where that reaches beyond the window, a
+//!   few submaps per scan are searched over a far wider one ([`UncertainClosureOptions`]). A scan
 //!   no submap took is searched once more, over ±10 m, in a chain of the earlier scans
 //!   around the one nearest to it ([`ChainClosureOptions`]): a long loop drifts further than
 //!   the submaps' window, and a stretch that local tracking got wrong blurs a whole submap.
@@ -56,6 +60,7 @@ pub use motion_filter::{MotionFilter, MotionFilterOptions};
 pub use motion_prior::{MotionPrior, MotionPriorOptions};
 pub use options::{
     ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,
+    UncertainClosureOptions,
 };
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;

@@ -32,6 +32,9 @@ pub struct SlamOptions {
     pub loop_closure: LoopClosureOptions,
     /// Loop closure against a chain of earlier scans, for scans no submap took.
     pub chain_closure: ChainClosureOptions,
+    /// Loop closure over a window as wide as the pose's uncertainty relative to a submap,
+    /// where that reaches beyond [`Self::loop_closure`]'s window.
+    pub uncertain_closure: UncertainClosureOptions,
     /// The alignment of every scan on the submaps near it at the end of a run.
     pub refinement: RefinementOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
@@ -92,6 +95,7 @@ impl Default for SlamOptions {
             local: LocalTrackingOptions::default(),
             loop_closure: LoopClosureOptions::default(),
             chain_closure: ChainClosureOptions::default(),
+            uncertain_closure: UncertainClosureOptions::default(),
             refinement: RefinementOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
             degenerate_information_ratio: 0.03,
@@ -180,8 +184,20 @@ pub struct LoopClosureOptions {
     pub search_rotation_step_rad: f64,
     /// Side of the search raster, pixels.
     pub raster_side_px: u32,
-    /// Submaps whose frame is farther from the scan's estimated pose are not searched, metres.
+    /// Submaps whose frame is farther from the scan's estimated pose than this, plus
+    /// [`Self::gate_sigmas`] standard deviations of that pose relative to the submap, are not
+    /// searched, metres.
     pub max_distance_m: f64,
+    /// How many standard deviations of the scan's pose relative to a submap (compounded along
+    /// the pose graph, [`relative_covariances`](crate::pose_graph::relative_covariances)) the
+    /// search must reach: beyond the window it is searched by [`UncertainClosureOptions`].
+    pub gate_sigmas: f64,
+    /// A closure whose error at the graph's poses has at most this χ² against the sum of its
+    /// own covariance and that of the scan's pose relative to the submap agrees with what the
+    /// graph knows, however far off it is: it is solved once without the robust kernel. The
+    /// default is χ² with three degrees of freedom at 99.73 %, the mass of three standard
+    /// deviations.
+    pub max_consistent_chi2: f64,
     /// The point-to-line alignment of a match on the submap's points.
     pub icp: IcpOptions,
     /// Fraction of the scan's end points on the submap's surfaces, after alignment, that
@@ -219,6 +235,8 @@ impl Default for LoopClosureOptions {
             search_rotation_step_rad: 1f64.to_radians(),
             raster_side_px: 256,
             max_distance_m: 10.0,
+            gate_sigmas: 3.0,
+            max_consistent_chi2: 14.16,
             icp: IcpOptions::default(),
             min_inlier_fraction: 0.8,
             max_free_fraction: 0.05,
@@ -273,6 +291,47 @@ impl Default for ChainClosureOptions {
                     ..ConfirmationOptions::default()
                 },
                 min_scans_apart: 50,
+                ..LoopClosureOptions::default()
+            },
+        }
+    }
+}
+
+/// How a scan is searched in a submap when its pose relative to that submap is more uncertain
+/// than [`LoopClosureOptions`]' window covers: after a long loop, or after scans local
+/// tracking could not place, whose constraints carry the motion prior's wide uncertainty.
+///
+/// The window is the widest the raster holds around the submap: a whole submap's worth of
+/// translations and a wide turn, at coarser steps (ICP's first stage reaches farther than the
+/// steps leave). A window that wide finds look-alikes as readily as the true place, so its
+/// matches pass the loop closure's own acceptance test and then must agree with a second one
+/// on the motion local tracking measured between them before they enter the graph; and only a
+/// few submaps are searched per scan, those searched longest ago first.
+#[derive(Clone, Debug)]
+pub struct UncertainClosureOptions {
+    /// Whether to search at all.
+    pub enabled: bool,
+    /// Submaps searched this way per searched scan, at most.
+    pub max_searches_per_scan: usize,
+    /// The search and its acceptance; its `max_distance_m`, `gate_sigmas`, `enabled`,
+    /// `every_n_scans` and `min_scans_apart` are those of [`LoopClosureOptions`].
+    pub search: LoopClosureOptions,
+}
+
+impl Default for UncertainClosureOptions {
+    fn default() -> Self {
+        UncertainClosureOptions {
+            enabled: true,
+            max_searches_per_scan: 2,
+            search: LoopClosureOptions {
+                search_window_m: 16.0,
+                search_window_rad: 45f64.to_radians(),
+                search_resolution_m: 0.2,
+                search_rotation_step_rad: 2f64.to_radians(),
+                raster_side_px: 512,
+                min_inlier_fraction: 0.75,
+                max_free_fraction: 0.15,
+                min_probability: 0.5,
                 ..LoopClosureOptions::default()
             },
         }
