@@ -85,15 +85,25 @@ impl Default for SlamOptions {
         let mut submap = SubmapOptions::default();
         submap.range_inserter.hit_probability = 0.9;
         submap.range_inserter.miss_probability = 0.3;
+        let scans_per_submap = 30;
         SlamOptions {
             submap,
             point_map: PointMapOptions::default(),
             motion_filter: MotionFilterOptions::default(),
-            scans_per_submap: 30,
+            scans_per_submap,
             max_range_m: 50.0,
             min_range_m: 0.1,
             local: LocalTrackingOptions::default(),
-            loop_closure: LoopClosureOptions::default(),
+            // Closures in neighbouring submaps (frames one submap apart) confirm each other,
+            // carried from one frame into the other through local tracking: a scan seen from
+            // another side of a place often lands in the submap next to the first one's.
+            loop_closure: LoopClosureOptions {
+                confirmation: ConfirmationOptions {
+                    max_frame_gap_nodes: scans_per_submap,
+                    ..ConfirmationOptions::default()
+                },
+                ..LoopClosureOptions::default()
+            },
             chain_closure: ChainClosureOptions::default(),
             uncertain_closure: UncertainClosureOptions::default(),
             refinement: RefinementOptions::default(),
@@ -206,7 +216,8 @@ pub struct LoopClosureOptions {
     /// Largest fraction of the scan's end points on cells the submap has seen free, after
     /// alignment, that accepts a match.
     pub max_free_fraction: f64,
-    /// Mean grid probability at the scan's end points, after alignment, that accepts a match.
+    /// Mean grid probability at the scan's end points on cells the submap observed, after
+    /// alignment, that accepts a match.
     pub min_probability: f64,
     /// How a closure is confirmed by a second one before it enters the pose graph.
     pub confirmation: ConfirmationOptions,

@@ -16,7 +16,10 @@ pub struct SubmapFit {
     /// has seen free: a wall where the submap's beams passed through, which a right pose does
     /// not produce.
     pub free_fraction: f64,
-    /// Mean occupancy probability at the end points (unknown cells count as 0).
+    /// Mean occupancy probability at the end points on cells the submap observed (0 when none
+    /// are). End points on cells it never observed are left out: a place seen again from
+    /// elsewhere, or outdoors past the vegetation, has parts the submap never saw, and they
+    /// say nothing against the match (the inlier and free fractions judge them).
     pub mean_probability: f64,
     /// [`Self::inlier_fraction`] with each end point weighted by its range: the share of the
     /// scanned surface rather than of the beams. Beams fan out, so a far wall gets few end
@@ -177,6 +180,7 @@ impl SlamSubmap {
         }
         let grid = self.submap.grid();
         let (mut inliers, mut free, mut probability_sum) = (0usize, 0usize, 0.0);
+        let mut known = 0usize;
         let (mut range_sum_m, mut inlier_range_m, mut free_range_m) = (0.0, 0.0, 0.0);
         let mut through_range_m = 0.0;
         let origin = grid
@@ -197,6 +201,7 @@ impl SlamSubmap {
                 inlier_range_m += range_m;
             }
             if let Some(probability) = grid.probability_at(point) {
+                known += 1;
                 probability_sum += f64::from(probability);
                 if !inlier && probability < FREE_PROBABILITY {
                     free += 1;
@@ -215,7 +220,11 @@ impl SlamSubmap {
         SubmapFit {
             inlier_fraction: inliers as f64 / n,
             free_fraction: free as f64 / n,
-            mean_probability: probability_sum / n,
+            mean_probability: if known > 0 {
+                probability_sum / known as f64
+            } else {
+                0.0
+            },
             surface_fraction: surface(inlier_range_m),
             free_surface_fraction: surface(free_range_m),
             through_surface_fraction: surface(through_range_m),
