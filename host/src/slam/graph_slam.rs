@@ -327,10 +327,11 @@ impl GraphSlam {
     /// submap took it (confirmed or not), and the submaps to search over a wider window
     /// ([`Self::close_loops_beyond_window`]) if none did.
     ///
-    /// A submap is near when its frame lies within [`LoopClosureOptions::max_distance_m`]
-    /// plus the reach ([`LoopClosureOptions::gate_sigmas`] standard deviations) of the
-    /// scan's pose relative to it, as far as the window reaches. Where the reach goes beyond
-    /// the window, the submap is also one to search wider.
+    /// A submap is searched as usual when its frame lies within
+    /// [`LoopClosureOptions::max_distance_m`]. Where the reach
+    /// ([`LoopClosureOptions::gate_sigmas`] standard deviations) of the scan's pose relative
+    /// to a submap goes beyond the usual window, the submap is one to search wider if its
+    /// frame lies within that distance plus the reach.
     ///
     /// [`LoopClosureOptions::max_distance_m`]: super::LoopClosureOptions::max_distance_m
     /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
@@ -365,7 +366,7 @@ impl GraphSlam {
                 submap: index,
                 guess_in_submap,
             };
-            if distance_m <= options.max_distance_m + reach_m.min(options.search_window_m) {
+            if distance_m <= options.max_distance_m {
                 near.push(guess);
             }
             let fits_window =

@@ -194,9 +194,10 @@ pub struct LoopClosureOptions {
     pub search_rotation_step_rad: f64,
     /// Side of the search raster, pixels.
     pub raster_side_px: u32,
-    /// Submaps whose frame is farther from the scan's estimated pose than this, plus
-    /// [`Self::gate_sigmas`] standard deviations of that pose relative to the submap, are not
-    /// searched, metres.
+    /// Submaps whose frame is farther from the scan's estimated pose than this are not
+    /// searched with this window; those within this plus [`Self::gate_sigmas`] standard
+    /// deviations of that pose relative to the submap, where those reach beyond the window,
+    /// may be searched by [`UncertainClosureOptions`], metres.
     pub max_distance_m: f64,
     /// How many standard deviations of the scan's pose relative to a submap (compounded along
     /// the pose graph, [`relative_covariances`](crate::pose_graph::relative_covariances)) the
