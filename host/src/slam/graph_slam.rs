@@ -117,6 +117,8 @@ pub struct GraphSlam {
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// Searches a submap over the wide window of an uncertain pose.
     uncertain_closer: LoopCloser,
+    /// The last node local tracking could not place, where it started afresh.
+    last_lost_node: Option<usize>,
     /// For every finished submap, the node last searched in it by `uncertain_closer`.
     last_uncertain_search: Vec<usize>,
     /// `map_from_local` as of the last optimisation.
@@ -152,6 +154,7 @@ impl GraphSlam {
             finished: Vec::new(),
             uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
             last_uncertain_search: Vec::new(),
+            last_lost_node: None,
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
@@ -219,7 +222,10 @@ impl GraphSlam {
             let _ = self.graph.add_edge(edge);
         }
         self.poses_in_local.push(tracked.pose_in_local);
-        if let Some(submap) = tracked.finished_submap {
+        if tracked.lost {
+            self.last_lost_node = Some(node);
+        }
+        for submap in tracked.finished_submaps {
             self.stats.submaps += 1;
             let reference = self.closer.prepare(&submap.reference_scan());
             self.finished.push((submap, reference));
@@ -351,7 +357,12 @@ impl GraphSlam {
         let mut near: Vec<SubmapGuess> = Vec::new();
         let mut beyond_window: Vec<SubmapGuess> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
-            if submap.last_node() + options.min_scans_apart > node {
+            // A submap tracking still tied the scan to is not searched, unless tracking lost
+            // its way since the submap's last scan and started afresh.
+            let restarted_since = self
+                .last_lost_node
+                .is_some_and(|lost| lost > submap.last_node());
+            if submap.last_node() + options.min_scans_apart > node && !restarted_since {
                 continue;
             }
             let Some(submap_in_map) = self.node_pose_in_map(submap.first_node()) else {

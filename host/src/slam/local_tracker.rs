@@ -30,7 +30,11 @@
 //! unless no pose that far from the prediction could pay the prior's penalty. A scan no
 //! candidate placed keeps its predicted pose and is flagged lost ([`TrackedScan::lost`]); its
 //! constraint to the scan before carries the prior's uncertainty, so that a loop closure can
-//! undo it.
+//! undo it. Tracking then starts afresh from it: the active submaps are finished before a
+//! scan whose place in them is unknown can blur them, and a new submap begins with the lost
+//! scan, so that the next scans are tracked against a map that agrees with itself, as a
+//! SLAM that loses its way starts a new map and joins it to the old one when it recognises
+//! a place (the loop closure does the joining).
 //!
 //! The pose found goes into both active submaps when the [`MotionFilter`] admits the scan (the
 //! robot moved or turned enough since the last scan inserted); the older is finished when the
@@ -82,8 +86,9 @@ pub struct TrackedScan {
     /// The chosen pose's share of the likelihood of all candidates (1 when it stood alone,
     /// 0 for a lost scan).
     pub confidence: f64,
-    /// A submap this scan finished, to keep for loop closure.
-    pub finished_submap: Option<SlamSubmap>,
+    /// The submaps this scan finished, to keep for loop closure: the older active one when
+    /// the newer is full, or both when the scan was lost and tracking started afresh.
+    pub finished_submaps: Vec<SlamSubmap>,
 }
 
 /// A scan aligned on the older active submap.
@@ -184,7 +189,7 @@ impl LocalTracker {
                 prior_sigma: self.prior.sigma(),
                 ambiguity_in_robot: Matrix3::zeros(),
                 confidence: 1.0,
-                finished_submap: None,
+                finished_submaps: Vec::new(),
             };
         };
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
@@ -265,7 +270,11 @@ impl LocalTracker {
         };
         // A scan local tracking had to search for is inserted whatever its motion: its pose
         // is the less certain, and a loop closure may need it as a node.
-        let (node, finished_submap) = self.accept(time_s, scan, pose, searched);
+        let (node, finished_submaps) = if lost {
+            self.restart(time_s, scan, pose)
+        } else {
+            self.accept(time_s, scan, pose, searched)
+        };
         self.last_motion = last_pose.inverse() * pose;
         TrackedScan {
             node,
@@ -279,7 +288,7 @@ impl LocalTracker {
             prior_sigma,
             ambiguity_in_robot,
             confidence,
-            finished_submap,
+            finished_submaps,
         }
     }
 
@@ -367,6 +376,38 @@ impl LocalTracker {
         guesses
     }
 
+    /// Starts afresh from a lost `scan` at its predicted `pose`: the active submaps are
+    /// finished, so that a scan whose place in them is unknown does not blur them, and a new
+    /// one begins with this scan; the last scans, the wide search's reference, are forgotten.
+    /// The next scans are tracked against this one, and the loop closure relates the new
+    /// submap to the old ones once it finds where it lies. Returns the scan's node number and
+    /// the submaps finished.
+    fn restart(
+        &mut self,
+        time_s: f64,
+        scan: &Scan,
+        pose: Pose2,
+    ) -> (Option<usize>, Vec<SlamSubmap>) {
+        self.filter.admits(time_s, pose, true);
+        // A submap holding only the lost scan it was started from is no map: dropped.
+        let mut finished: Vec<SlamSubmap> = std::mem::take(&mut self.active)
+            .into_iter()
+            .filter(|submap| submap.num_scans() > 1)
+            .collect();
+        for submap in &mut finished {
+            submap.finish();
+        }
+        self.recent.clear();
+        self.last_pose_in_local = Some(pose);
+        let node = self.next_node;
+        self.next_node += 1;
+        let mut submap = SlamSubmap::new(pose, node, self.options.submap, self.options.point_map);
+        submap.insert(node, scan, pose);
+        self.active.push(submap);
+        self.recent.push(pose, scan.clone());
+        (Some(node), finished)
+    }
+
     /// Takes the scan taken at `time_s` as at `pose`: inserts it when `always` or when the
     /// motion filter admits it, and starts and finishes submaps as due. Returns its node
     /// number when it was inserted, and the submap it finished.
@@ -376,10 +417,10 @@ impl LocalTracker {
         scan: &Scan,
         pose: Pose2,
         always: bool,
-    ) -> (Option<usize>, Option<SlamSubmap>) {
+    ) -> (Option<usize>, Vec<SlamSubmap>) {
         self.last_pose_in_local = Some(pose);
         if !self.filter.admits(time_s, pose, always) {
-            return (None, None);
+            return (None, Vec::new());
         }
         let node = self.next_node;
         self.next_node += 1;
@@ -398,7 +439,7 @@ impl LocalTracker {
             .active
             .last()
             .is_some_and(|s| s.num_scans() >= self.options.scans_per_submap);
-        let mut finished = None;
+        let mut finished = Vec::new();
         if newest_full {
             let mut next = SlamSubmap::new(pose, node, self.options.submap, self.options.point_map);
             next.insert(node, scan, pose);
@@ -406,7 +447,7 @@ impl LocalTracker {
             if self.active.len() > 2 {
                 let mut old = self.active.remove(0);
                 old.finish();
-                finished = Some(old);
+                finished.push(old);
             }
         }
         self.recent.push(pose, scan.clone());
@@ -514,6 +555,48 @@ mod tests {
         let error = predicted.inverse() * tracked.pose_in_local;
         assert!(error.x_m.hypot(error.y_m) < 0.02, "{error:?}");
         assert!(tracked.information_in_robot.is_none());
+    }
+
+    #[test]
+    fn tracking_starts_afresh_after_a_lost_scan() {
+        let mut tracker = LocalTracker::new(SlamOptions::default()).unwrap();
+        let step = Pose2::new(0.1, 0.0, 0.0);
+        let mut truth = Pose2::new(0.3, -0.2, 0.0);
+        for _ in 0..5 {
+            assert!(!tracker.track(0.0, &room_scan(truth), None).lost);
+            truth = truth * step;
+        }
+        // Into a hall the room's submap has seen nothing of.
+        let hall = crate::scan_match::synthetic::polygon_walls(&[
+            [-30.0, -30.0],
+            [22.0, -30.0],
+            [30.0, 10.0],
+            [-30.0, 30.0],
+        ]);
+        let in_hall = |x_m: f64| {
+            cast_front_scan(&hall, Pose2::new(0.0, 0.0, 0.4) * Pose2::new(x_m, 0.0, 0.0))
+        };
+        let lost = tracker.track(0.0, &in_hall(0.0), None);
+        assert!(lost.lost);
+        // The room's submap is finished as it was, without the lost scan.
+        assert_eq!(lost.finished_submaps.len(), 1);
+        assert_eq!(lost.finished_submaps[0].num_scans(), 5);
+        assert_eq!(tracker.active_submaps().len(), 1);
+        assert_eq!(tracker.active_submaps()[0].num_scans(), 1);
+        // The next scans of the hall are tracked against the lost one: 0.1 m a step, as the
+        // robot moves (the prediction after the lost scan repeats the room's last step).
+        let mut last = lost.pose_in_local;
+        for x_m in [0.1, 0.2, 0.3] {
+            let tracked = tracker.track(0.0, &in_hall(x_m), None);
+            assert!(!tracked.lost, "{:?}", tracked.fit);
+            let moved = last.inverse() * tracked.pose_in_local;
+            assert!((moved.x_m - 0.1).abs() < 0.02, "{moved:?}");
+            assert!(
+                moved.y_m.abs() < 0.02 && moved.theta_rad.abs() < 0.01,
+                "{moved:?}"
+            );
+            last = tracked.pose_in_local;
+        }
     }
 
     #[test]

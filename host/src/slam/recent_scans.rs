@@ -29,6 +29,11 @@ impl RecentScans {
         self.scans.push_back((pose_in_local, scan));
     }
 
+    /// Forgets every scan.
+    pub fn clear(&mut self) {
+        self.scans.clear();
+    }
+
     /// The newest scan's pose, if any.
     pub fn last_pose_in_local(&self) -> Option<Pose2> {
         self.scans.back().map(|(pose, _)| *pose)
