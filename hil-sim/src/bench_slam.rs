@@ -62,6 +62,10 @@ pub struct BenchSlamRow {
     pub scans_per_second: f64,
     /// Seconds per 1 000 scans.
     pub seconds_per_1000_scans: f64,
+    /// Seconds the last 1 000 scans took (the run's end included) over seconds the first
+    /// 1 000 took, for a log of at least 2 000 scans: whether a scan costs more as the map
+    /// grows.
+    pub last_to_first_1000: Option<f64>,
     /// Error between consecutive scans of the reference trajectory.
     pub consecutive: Option<MeanError>,
     /// Error on the reference's revisits (scans at least 50 apart within 2 m and 45°).
@@ -178,6 +182,7 @@ pub fn bench_slam(
             wall_s: summary.wall_s,
             scans_per_second: summary.scans_per_second,
             seconds_per_1000_scans: 1000.0 * summary.wall_s / summary.scans.max(1) as f64,
+            last_to_first_1000: summary.timing.last_to_first_1000,
             consecutive: MeanError::of(summary.reference_consecutive.as_ref()),
             revisits: MeanError::of(summary.reference_revisits.as_ref()),
             relations: MeanError::of(summary.relations.as_ref()),
@@ -201,11 +206,12 @@ impl BenchSlamReport {
             )
         };
         let mut text = format!(
-            "{:<18} {:>6} {:>8} {:>8} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
+            "{:<18} {:>6} {:>8} {:>8} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
             "log",
             "scans",
             "scans/s",
             "s/1000",
+            "last/first",
             "consecutive",
             "revisits",
             "relations",
@@ -216,11 +222,13 @@ impl BenchSlamReport {
         );
         for row in &self.logs {
             text.push_str(&format!(
-                "{:<18} {:>6} {:>8.0} {:>8.2} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
+                "{:<18} {:>6} {:>8.0} {:>8.2} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
                 row.log,
                 row.scans,
                 row.scans_per_second,
                 row.seconds_per_1000_scans,
+                row.last_to_first_1000
+                    .map_or_else(|| "—".to_string(), |r| format!("{r:.2}×")),
                 error(row.consecutive),
                 error(row.revisits),
                 error(row.relations),
@@ -270,6 +278,7 @@ mod tests {
                 wall_s: 0.5,
                 scans_per_second: 20.0,
                 seconds_per_1000_scans: 50.0,
+                last_to_first_1000: None,
                 consecutive: Some(MeanError {
                     relations: 9,
                     translation_m: 0.0123,

@@ -9,7 +9,8 @@
 //! * `map.pgm`, `map.yaml` (the ROS `map_server` format) and `map.png`: the global occupancy
 //!   grid, every scan inserted at its optimised pose;
 //! * `summary.json`: `scans`, `wall_s` (the SLAM's own time: tracking, loop closure, pose
-//!   graph, not reading the log or writing the map), `scans_per_second`, what the pipeline
+//!   graph, not reading the log or writing the map), `scans_per_second`, `timing` (per-scan
+//!   percentiles, the run's end, and the last 1 000 scans against the first), what the pipeline
 //!   did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
 //!   2009); for a relations file, also which of its relations the log's own scans dispute and
 //!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]).
@@ -66,6 +67,8 @@ pub struct SlamReplaySummary {
     pub wall_s: f64,
     /// `scans / wall_s`.
     pub scans_per_second: f64,
+    /// How the time was spent along the run.
+    pub timing: ScanTiming,
     /// The log.
     pub log: String,
     /// Whether the log's poses were used as odometry.
@@ -87,6 +90,55 @@ pub struct SlamReplaySummary {
     /// Error on revisits of the reference (scans at least 50 apart within 2 m and 45°).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_revisits: Option<RelationEvaluation>,
+}
+
+/// How a run's time was spent: whether a scan costs more as the map grows.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScanTiming {
+    /// Median time to add one scan, milliseconds.
+    pub scan_p50_ms: f64,
+    /// 99th percentile of the time to add one scan, milliseconds.
+    pub scan_p99_ms: f64,
+    /// The longest time to add one scan, milliseconds.
+    pub scan_max_ms: f64,
+    /// The end of the run: the last optimisation and the final refinement, seconds.
+    pub finish_s: f64,
+    /// Seconds the first 1 000 scans took (all of them in a shorter log).
+    pub first_1000_scans_s: f64,
+    /// Seconds the last 1 000 scans took, the end of the run included.
+    pub last_1000_scans_s: f64,
+    /// `last_1000_scans_s / first_1000_scans_s`, for a log of at least 2 000 scans (the two
+    /// spans apart).
+    pub last_to_first_1000: Option<f64>,
+}
+
+impl ScanTiming {
+    /// Scans per span compared.
+    const SPAN: usize = 1000;
+
+    /// The timing of a run whose scans took `scan_s` seconds each and whose end took
+    /// `finish_s`.
+    pub fn of(scan_s: &[f64], finish_s: f64) -> ScanTiming {
+        let mut sorted = scan_s.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let percentile_ms = |q: f64| {
+            let index = (q * sorted.len() as f64).ceil() as usize;
+            1000.0 * sorted.get(index.saturating_sub(1)).copied().unwrap_or(0.0)
+        };
+        let span = Self::SPAN.min(scan_s.len());
+        let first_1000_scans_s = scan_s[..span].iter().sum::<f64>();
+        let last_1000_scans_s = scan_s[scan_s.len() - span..].iter().sum::<f64>() + finish_s;
+        ScanTiming {
+            scan_p50_ms: percentile_ms(0.5),
+            scan_p99_ms: percentile_ms(0.99),
+            scan_max_ms: percentile_ms(1.0),
+            finish_s,
+            first_1000_scans_s,
+            last_1000_scans_s,
+            last_to_first_1000: (scan_s.len() >= 2 * Self::SPAN && first_1000_scans_s > 0.0)
+                .then(|| last_1000_scans_s / first_1000_scans_s),
+        }
+    }
 }
 
 /// Why a replay failed.
@@ -163,14 +215,19 @@ pub fn replay_carmen_slam(
         map_resolution_m: MAP_RESOLUTION_M,
         ..GridPipelineOptions::default()
     })?;
+    let mut scan_s = Vec::with_capacity(scans.len());
     for (laser, scan) in lasers.iter().zip(&scans) {
         let odometry = options.odometry.then(|| {
             let p = laser.robot_pose;
             Pose2::new(p.x_m, p.y_m, p.theta_rad)
         });
+        let adding = Instant::now();
         pipeline.add_scan(laser.timestamp_s, scan, odometry);
+        scan_s.push(adding.elapsed().as_secs_f64());
     }
+    let finishing = Instant::now();
     pipeline.finish();
+    let timing = ScanTiming::of(&scan_s, finishing.elapsed().as_secs_f64());
     let wall_s = started.elapsed().as_secs_f64();
     let poses_in_map = pipeline.poses_in_map();
 
@@ -245,6 +302,7 @@ pub fn replay_carmen_slam(
         scans: scans.len(),
         wall_s,
         scans_per_second: scans.len() as f64 / wall_s.max(1e-9),
+        timing,
         log: options.log.display().to_string(),
         odometry: options.odometry,
         slam: pipeline.stats(),
@@ -286,4 +344,34 @@ fn write_trajectory(
         )?;
     }
     out.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timing_compares_the_last_thousand_scans_with_the_first() {
+        // 2 500 scans: the first 1 000 take 1 ms each, the last 1 000 take 3 ms, and the end
+        // of the run 0.5 s.
+        let scan_s: Vec<f64> = (0..2500)
+            .map(|i| if i < 1500 { 0.001 } else { 0.003 })
+            .collect();
+        let timing = ScanTiming::of(&scan_s, 0.5);
+        assert!((timing.first_1000_scans_s - 1.0).abs() < 1e-9);
+        assert!((timing.last_1000_scans_s - 3.5).abs() < 1e-9);
+        assert!((timing.last_to_first_1000.unwrap() - 3.5).abs() < 1e-9);
+        assert!((timing.scan_p50_ms - 1.0).abs() < 1e-9);
+        assert!((timing.scan_p99_ms - 3.0).abs() < 1e-9);
+        assert!((timing.scan_max_ms - 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_short_run_has_no_ratio() {
+        let timing = ScanTiming::of(&[0.002; 1999], 0.1);
+        assert_eq!(timing.last_to_first_1000, None);
+        let empty = ScanTiming::of(&[], 0.0);
+        assert_eq!(empty.scan_max_ms, 0.0);
+        assert_eq!(empty.last_to_first_1000, None);
+    }
 }

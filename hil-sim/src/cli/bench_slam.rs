@@ -7,7 +7,8 @@ use super::CliResult;
 /// Method 2 over every CARMEN log (`*.clf`, `*.clf.gz`) of DIR, laser only, with the defaults every log
 /// shares; each with `NAME.reference.tsv` and `NAME.relations` beside it when present.
 ///
-/// Prints one row per log (scans, scans/s, seconds per 1 000 scans, the mean error between
+/// Prints one row per log (scans, scans/s, seconds per 1 000 scans, the last 1 000 scans'
+/// time over the first 1 000's for logs of at least 2 000 scans, the mean error between
 /// consecutive scans and at revisits of the reference trajectory, the error on the published
 /// relations, loop-closure searches and the closures that entered the graph) and, as its last
 /// line, the same as JSON: `{"logs":[{"log":…,"scans":…,…},…]}`. Each log's outputs, as
