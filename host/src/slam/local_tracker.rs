@@ -388,7 +388,6 @@ impl LocalTracker {
         scan: &Scan,
         pose: Pose2,
     ) -> (Option<usize>, Vec<SlamSubmap>) {
-        self.filter.admits(time_s, pose, true);
         // A submap holding only the lost scan it was started from is no map: dropped.
         let mut finished: Vec<SlamSubmap> = std::mem::take(&mut self.active)
             .into_iter()
@@ -398,14 +397,9 @@ impl LocalTracker {
             submap.finish();
         }
         self.recent.clear();
-        self.last_pose_in_local = Some(pose);
-        let node = self.next_node;
-        self.next_node += 1;
-        let mut submap = SlamSubmap::new(pose, node, self.options.submap, self.options.point_map);
-        submap.insert(node, scan, pose);
-        self.active.push(submap);
-        self.recent.push(pose, scan.clone());
-        (Some(node), finished)
+        // With no active submap, the scan starts one.
+        let (node, _) = self.accept(time_s, scan, pose, true);
+        (node, finished)
     }
 
     /// Takes the scan taken at `time_s` as at `pose`: inserts it when `always` or when the
