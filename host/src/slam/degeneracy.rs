@@ -14,7 +14,11 @@
 //! Zhang, Kaess and Singh 2016, "On Degeneracy of Optimization-based State Estimation
 //! Problems"); elsewhere it stays at [`SlamOptions::odometry_sigma`] for scan-to-scan
 //! constraints and [`SlamOptions::loop_closure_sigma`] for loop closures. A loop closure
-//! found along a corridor is as blind along it as local tracking.
+//! found along a corridor is as blind along it as local tracking. A scan-to-scan constraint
+//! between scans a laser at its full rate took centimetres apart is loosened only by what
+//! its predictions and tracking's moves leave unknown
+//! ([`TrackedScan::unmeasured_sigma_m`](super::TrackedScan::unmeasured_sigma_m)): the robot
+//! had no time to stop or turn between them.
 //!
 //! [`IcpMatch::information`]: super::icp::IcpMatch::information
 
@@ -25,12 +29,22 @@ use crate::pose_graph::Edge;
 
 /// The information of the constraint between a scan and the one before, for a scan placed by
 /// an alignment with `information_in_robot` (about a motion of the robot in its own frame,
-/// `(x_m, y_m, theta_rad)`), or by none.
+/// `(x_m, y_m, theta_rad)`), or by none. Along the alignment's weak direction the motion is
+/// what tracking predicted and moved, uncertain by `unmeasured_sigma_m`
+/// ([`TrackedScan::unmeasured_sigma_m`](super::TrackedScan::unmeasured_sigma_m)), at most
+/// [`SlamOptions::degenerate_sigma_m`]: at a laser's full rate, scans centimetres apart do
+/// not slide by metres.
 pub fn consecutive_information(
     options: &SlamOptions,
     information_in_robot: Option<&Matrix3<f64>>,
+    unmeasured_sigma_m: f64,
 ) -> Matrix3<f64> {
-    constraint_information(options.odometry_sigma, options, information_in_robot)
+    constraint_information(
+        options.odometry_sigma,
+        options.degenerate_sigma_m.min(unmeasured_sigma_m),
+        options,
+        information_in_robot,
+    )
 }
 
 /// The information of a loop-closure constraint found by an alignment with
@@ -40,12 +54,18 @@ pub fn closure_information(
     options: &SlamOptions,
     information_in_robot: Option<&Matrix3<f64>>,
 ) -> Matrix3<f64> {
-    constraint_information(options.loop_closure_sigma, options, information_in_robot)
+    constraint_information(
+        options.loop_closure_sigma,
+        options.degenerate_sigma_m,
+        options,
+        information_in_robot,
+    )
 }
 
 /// Standard deviations `[sigma_m, sigma_rad]`, loosened along the alignment's weak direction.
 fn constraint_information(
     [sigma_m, sigma_rad]: [f64; 2],
+    weak_sigma_m: f64,
     options: &SlamOptions,
     information_in_robot: Option<&Matrix3<f64>>,
 ) -> Matrix3<f64> {
@@ -61,7 +81,7 @@ fn constraint_information(
         sigma_m * sigma_m,
         sigma_rad * sigma_rad,
     ));
-    let along = direction * direction.transpose() * options.degenerate_sigma_m.powi(2);
+    let along = direction * direction.transpose() * weak_sigma_m.powi(2);
     let mut translation = covariance.fixed_view_mut::<2, 2>(0, 0);
     translation += along;
     covariance.try_inverse().unwrap_or(floor)
@@ -147,12 +167,13 @@ mod tests {
     fn the_constraint_loosens_only_along_the_weak_direction() {
         let options = SlamOptions::default();
         let [sigma_m, _] = options.odometry_sigma;
-        let floor = consecutive_information(&options, None);
+        let far_apart = 10.0;
+        let floor = consecutive_information(&options, None, far_apart);
         assert_eq!(
             floor,
-            consecutive_information(&options, Some(&corridor(10)))
+            consecutive_information(&options, Some(&corridor(10)), far_apart)
         );
-        let loose = consecutive_information(&options, Some(&corridor(0)));
+        let loose = consecutive_information(&options, Some(&corridor(0)), far_apart);
         let covariance = loose.try_inverse().expect("invertible");
         let along = options.degenerate_sigma_m.powi(2) + sigma_m * sigma_m;
         assert!(
@@ -165,6 +186,20 @@ mod tests {
         );
         assert!(
             (covariance[(2, 2)] - floor.try_inverse().expect("invertible")[(2, 2)]).abs() < 1e-12
+        );
+    }
+
+    #[test]
+    fn a_motion_the_prediction_holds_loosens_no_further_than_its_uncertainty() {
+        let options = SlamOptions::default();
+        let [sigma_m, _] = options.odometry_sigma;
+        let unmeasured_m = 0.05;
+        let held = consecutive_information(&options, Some(&corridor(0)), unmeasured_m);
+        let covariance = held.try_inverse().expect("invertible");
+        let along = unmeasured_m * unmeasured_m + sigma_m * sigma_m;
+        assert!(
+            (covariance[(0, 0)] - along).abs() < 1e-9 * along,
+            "{covariance}"
         );
     }
 }

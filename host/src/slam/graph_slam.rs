@@ -205,8 +205,11 @@ impl GraphSlam {
                 let [sigma_m, sigma_rad] = tracked.prior_sigma;
                 Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad)
             } else {
-                let information =
-                    consecutive_information(&self.options, tracked.information_in_robot.as_ref());
+                let information = consecutive_information(
+                    &self.options,
+                    tracked.information_in_robot.as_ref(),
+                    tracked.unmeasured_sigma_m,
+                );
                 // The candidates that came close widen the constraint to cover them.
                 information
                     .try_inverse()

@@ -13,6 +13,11 @@
 //! its nearest map point and how far every other map point lay ([`Correspondence`]); while
 //! the remembered point is still nearer than any other can have come, it is the nearest
 //! without a search. The pairs are exactly those a search would make.
+//!
+//! A [`PosePrior`] (local tracking's motion prior) can hold the pose near a prediction: it
+//! enters each step as one more measurement, weighted as the distances are (its standard
+//! deviations against [`IcpOptions::huber_m`]), so it decides only where the end points say
+//! nothing: along a corridor, whose walls leave the pose free to slide.
 
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
@@ -43,6 +48,39 @@ impl Default for IcpOptions {
             inlier_m: 0.1,
             min_pairs: 10,
         }
+    }
+}
+
+/// A Gaussian prior on the pose being aligned: `map_from_robot` is expected at `mean`, with
+/// standard deviations `sigma` (translation in any direction, m; heading, rad).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PosePrior {
+    /// The expected `map_from_robot`.
+    pub mean: Pose2,
+    /// Standard deviations: translation (m), rotation (rad).
+    pub sigma: [f64; 2],
+}
+
+impl PosePrior {
+    /// The prior's information, in units of the squared point-to-line distance whose noise
+    /// is `huber_m` (the scale [`align_near`] weighs the distances in).
+    fn information(&self, huber_m: f64) -> Vector3<f64> {
+        let [sigma_m, sigma_rad] = self.sigma;
+        let h2 = huber_m * huber_m;
+        Vector3::new(
+            h2 / (sigma_m * sigma_m),
+            h2 / (sigma_m * sigma_m),
+            h2 / (sigma_rad * sigma_rad),
+        )
+    }
+
+    /// `pose − mean`, the heading wrapped.
+    fn deviation(&self, pose: Pose2) -> Vector3<f64> {
+        Vector3::new(
+            pose.x_m - self.mean.x_m,
+            pose.y_m - self.mean.y_m,
+            wrap_angle_rad(pose.theta_rad - self.mean.theta_rad),
+        )
     }
 }
 
@@ -84,6 +122,18 @@ pub fn align(
     guess: Pose2,
     options: &IcpOptions,
 ) -> Option<IcpMatch> {
+    align_near(map, points_in_robot, guess, options, None)
+}
+
+/// [`align`], held near `prior` where the end points leave the pose free (the module
+/// documentation). The returned information is the end points' alone.
+pub fn align_near(
+    map: &PointMap,
+    points_in_robot: &[[f64; 2]],
+    guess: Pose2,
+    options: &IcpOptions,
+    prior: Option<&PosePrior>,
+) -> Option<IcpMatch> {
     if points_in_robot.is_empty() || map.is_empty() {
         return None;
     }
@@ -104,9 +154,12 @@ pub fn align(
                 points_in_robot,
                 &mut correspondences,
                 pose,
-                stage_m,
-                search_m,
+                Pairing {
+                    max_distance_m: stage_m,
+                    search_m,
+                },
                 options,
+                prior,
             )?;
             pose = Pose2::new(
                 pose.x_m + step[0],
@@ -227,16 +280,28 @@ fn huber_weight(residual_m: f64, huber_m: f64) -> f64 {
     }
 }
 
-/// One damped Gauss–Newton step `[dx, dy, dθ]` on the pairs within `max_distance_m`.
+/// The pairs a step pairs within a stage: an end point's nearest map point within
+/// `max_distance_m`, searched out to `search_m`.
+#[derive(Clone, Copy, Debug)]
+struct Pairing {
+    max_distance_m: f64,
+    search_m: f64,
+}
+
+/// One damped Gauss–Newton step `[dx, dy, dθ]` on the pairs `pairing` makes, and `prior`.
 fn gauss_newton_step(
     map: &PointMap,
     points_in_robot: &[[f64; 2]],
     correspondences: &mut [Correspondence],
     pose: Pose2,
-    max_distance_m: f64,
-    search_m: f64,
+    pairing: Pairing,
     options: &IcpOptions,
+    prior: Option<&PosePrior>,
 ) -> Option<[f64; 3]> {
+    let Pairing {
+        max_distance_m,
+        search_m,
+    } = pairing;
     let (sin, cos) = pose.theta_rad.sin_cos();
     let mut hessian = Matrix3::<f64>::zeros();
     let mut gradient = Vector3::<f64>::zeros();
@@ -261,6 +326,13 @@ fn gauss_newton_step(
     if pairs < options.min_pairs {
         return None;
     }
+    if let Some(prior) = prior {
+        let information = prior.information(options.huber_m);
+        if information.iter().all(|i| i.is_finite()) {
+            hessian += Matrix3::from_diagonal(&information);
+            gradient += information.component_mul(&prior.deviation(pose));
+        }
+    }
     let damping = 1e-6 * hessian.trace().max(1e-9);
     hessian += Matrix3::identity() * damping;
     let step = hessian.cholesky()?.solve(&(-gradient));
@@ -272,7 +344,7 @@ mod tests {
     use super::super::point_map::{PointMapOptions, points_with_normals};
     use super::*;
     use crate::scan_match::Scan;
-    use crate::scan_match::synthetic::{cast_front_scan, polygon_walls};
+    use crate::scan_match::synthetic::{WallInMap, cast_front_scan, polygon_walls};
 
     #[test]
     fn recovers_an_offset_pose_in_a_room() {
@@ -342,5 +414,41 @@ mod tests {
     fn an_empty_map_aligns_nothing() {
         let map = PointMap::new(PointMapOptions::default());
         assert!(align(&map, &[[1.0, 0.0]], Pose2::IDENTITY, &IcpOptions::default()).is_none());
+    }
+
+    #[test]
+    fn a_prior_holds_the_pose_along_a_corridor_and_not_across_it() {
+        // Two walls 3 m apart and 40 m long, their ends beyond the 20 m range: the end points
+        // fix the pose across the corridor and in heading, and nothing along it.
+        let walls: Vec<WallInMap> =
+            vec![[[-40.0, -1.5], [40.0, -1.5]], [[-40.0, 1.5], [40.0, 1.5]]];
+        let truth = Pose2::new(0.0, 0.0, 0.0);
+        let options = PointMapOptions::default();
+        let mut map = PointMap::new(options);
+        map.insert_scan(&cast_front_scan(&walls, Pose2::IDENTITY), Pose2::IDENTITY);
+        let points: Vec<[f64; 2]> = points_with_normals(&cast_front_scan(&walls, truth), &options)
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect();
+        // The prediction is 0.3 m along and 0.1 m across the corridor from the truth; the
+        // alignment starts 0.2 m farther along.
+        let prior = PosePrior {
+            mean: Pose2::new(0.3, 0.1, 0.0),
+            sigma: [0.03, 1f64.to_radians()],
+        };
+        let icp = IcpOptions::default();
+        let held = align_near(&map, &points, Pose2::new(0.5, 0.1, 0.0), &icp, Some(&prior))
+            .expect("aligned");
+        let pose = held.map_from_robot;
+        assert!((pose.x_m - 0.3).abs() < 0.01, "{pose:?}");
+        assert!(pose.y_m.abs() < 0.01, "{pose:?}");
+        assert!(pose.theta_rad.abs() < 1e-3, "{pose:?}");
+        // Without it the alignment stays wherever it started along the corridor.
+        let free = align(&map, &points, Pose2::new(0.5, 0.1, 0.0), &icp).expect("aligned");
+        assert!(
+            (free.map_from_robot.x_m - 0.5).abs() < 0.01,
+            "{:?}",
+            free.map_from_robot
+        );
     }
 }

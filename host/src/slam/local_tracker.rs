@@ -36,13 +36,21 @@
 //! SLAM that loses its way starts a new map and joins it to the old one when it recognises
 //! a place (the loop closure does the joining).
 //!
+//! Scans a laser takes at its full rate lie centimetres apart, and the robot has no time to
+//! stop or turn between them ([`MotionPrior::is_short_interval`]). There the prediction is
+//! as good as the prior has learnt it to be, so the alignment is held near it where the
+//! submap leaves the pose free ([`PosePrior`]: along a corridor longer than the laser reaches,
+//! where ICP would otherwise slide by decimetres from one scan to the next), and the scan's
+//! constraint to the node before is as uncertain along that direction as the predictions
+//! and the moves since ([`TrackedScan::unmeasured_sigma_m`]) rather than by metres.
+//!
 //! The pose found goes into both active submaps when the [`MotionFilter`] admits the scan (the
 //! robot moved or turned enough since the last scan inserted); the older is finished when the
 //! newer has received [`SlamOptions::scans_per_submap`] scans.
 
 use nalgebra::Matrix3;
 
-use super::icp::align;
+use super::icp::{PosePrior, align_near};
 use super::motion_filter::MotionFilter;
 use super::motion_prior::MotionPrior;
 use super::options::SlamOptions;
@@ -78,6 +86,16 @@ pub struct TrackedScan {
     pub lost: bool,
     /// The motion prior's standard deviations at this scan: translation (m), rotation (rad).
     pub prior_sigma: [f64; 2],
+    /// For a node: how far its motion from the node before may be wrong in a direction its
+    /// alignments could not see (along a corridor), m. There the motion is the predictions'
+    /// of the scans since that node and what tracking moved them from their predictions (a
+    /// slide the scans did not hold): the root of the sum of the predictions' variances and
+    /// the squared moves. A prediction over a short interval
+    /// ([`MotionPrior::is_short_interval`], a laser at its full rate) is as uncertain as the
+    /// prior; over a longer one, in which a robot may stop or turn, as
+    /// [`SlamOptions::degenerate_sigma_m`](super::SlamOptions::degenerate_sigma_m). Zero for a
+    /// scan that is not a node.
+    pub unmeasured_sigma_m: f64,
     /// How far the other candidate poses that scored nearly as well lie from the chosen one:
     /// their covariance about it in the robot frame, `(x_m, y_m, theta_rad)`, each weighted
     /// by how likely its score makes it (zero when no other candidate came close). Two
@@ -119,6 +137,11 @@ pub struct LocalTracker {
     last_pose_in_local: Option<Pose2>,
     last_motion: Pose2,
     last_odometry: Option<Pose2>,
+    last_time_s: Option<f64>,
+    /// Since the last node, summed: the squared errors of the predictions along a direction
+    /// no alignment sees, and the squared moves from them ([`TrackedScan::unmeasured_sigma_m`]),
+    /// m².
+    unmeasured_m2: f64,
     next_node: usize,
 }
 
@@ -161,6 +184,8 @@ impl LocalTracker {
             last_pose_in_local: None,
             last_motion: Pose2::IDENTITY,
             last_odometry: None,
+            last_time_s: None,
+            unmeasured_m2: 0.0,
             next_node: 0,
             options,
         })
@@ -174,6 +199,9 @@ impl LocalTracker {
             _ => None,
         };
         self.last_odometry = odometry;
+        if let Some(last_time_s) = self.last_time_s.replace(time_s) {
+            self.prior.set_interval(time_s - last_time_s);
+        }
         let Some(last_pose) = self.last_pose_in_local else {
             let pose = Pose2::IDENTITY;
             let (node, _) = self.accept(time_s, scan, pose, true);
@@ -187,6 +215,7 @@ impl LocalTracker {
                 searched_far: false,
                 lost: false,
                 prior_sigma: self.prior.sigma(),
+                unmeasured_sigma_m: 0.0,
                 ambiguity_in_robot: Matrix3::zeros(),
                 confidence: 1.0,
                 finished_submaps: Vec::new(),
@@ -276,6 +305,18 @@ impl LocalTracker {
             self.accept(time_s, scan, pose, searched)
         };
         self.last_motion = last_pose.inverse() * pose;
+        let moved = predicted.inverse() * pose;
+        let predicted_error_m = if self.prior.is_short_interval() {
+            prior_sigma[0]
+        } else {
+            self.options.degenerate_sigma_m
+        };
+        self.unmeasured_m2 += predicted_error_m.powi(2) + moved.x_m.powi(2) + moved.y_m.powi(2);
+        let unmeasured_sigma_m = if node.is_some() {
+            std::mem::take(&mut self.unmeasured_m2).sqrt()
+        } else {
+            0.0
+        };
         TrackedScan {
             node,
             pose_in_local: pose,
@@ -286,6 +327,7 @@ impl LocalTracker {
             searched_far,
             lost,
             prior_sigma,
+            unmeasured_sigma_m,
             ambiguity_in_robot,
             confidence,
             finished_submaps,
@@ -309,7 +351,13 @@ impl LocalTracker {
         let submap_in_local = submap.pose_in_local();
         let guess = submap_in_local.inverse() * guess_in_local;
         let icp = &self.options.local.icp;
-        let found = align(submap.points(), points, guess, icp)?;
+        // Between scans close in time, held near the prediction where the submap leaves the
+        // pose free (along a corridor); scans farther apart may have stopped or turned.
+        let prior = self.prior.is_short_interval().then(|| PosePrior {
+            mean: submap_in_local.inverse() * predicted,
+            sigma: self.prior.sigma(),
+        });
+        let found = align_near(submap.points(), points, guess, icp, prior.as_ref())?;
         let fit = submap.tracking_fit(points, found.map_from_robot, icp.inlier_m);
         let pose_in_local = submap_in_local * found.map_from_robot;
         let score = fit.tracking_score(self.options.local.free_weight)

@@ -44,7 +44,8 @@ pub struct SlamOptions {
     /// the information it holds across it (a corridor's axis; [`super::degeneracy`]). 0
     /// keeps every constraint at [`Self::odometry_sigma`] or [`Self::loop_closure_sigma`].
     pub degenerate_information_ratio: f64,
-    /// Standard deviation added to such a constraint along that direction, metres.
+    /// Standard deviation added to such a constraint along that direction, metres (to a
+    /// scan-to-scan constraint at most this: [`super::TrackedScan::unmeasured_sigma_m`]).
     pub degenerate_sigma_m: f64,
     /// Standard deviation of a loop-closure constraint: translation (m), rotation (rad).
     pub loop_closure_sigma: [f64; 2],
