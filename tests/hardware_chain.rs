@@ -50,7 +50,7 @@ fn a_board_on_serial_lines_is_driven_on_the_wall_clock_and_accounts_for_every_sc
         out: out.clone(),
         realtime: false,
         hardware: None,
-        grid_motion_filter: false,
+        grid_every_scan: false,
     };
     let lines = WallLines {
         laser: Line::Pty(laser),

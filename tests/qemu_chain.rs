@@ -79,7 +79,7 @@ fn options(name: &str) -> RunOptions {
         out,
         realtime: false,
         hardware: None,
-        grid_motion_filter: false,
+        grid_every_scan: false,
     }
 }
 

@@ -33,7 +33,7 @@ fn run_world(
         out: out.clone(),
         realtime: false,
         hardware: None,
-        grid_motion_filter: false,
+        grid_every_scan: false,
     };
     let summary = run(&options).expect("run");
     (summary, out)

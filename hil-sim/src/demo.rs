@@ -146,7 +146,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         out: options.out.join("simulation"),
         realtime: options.realtime,
         hardware: None,
-        grid_motion_filter: false,
+        grid_every_scan: false,
     };
     // The pty's device end stays open until the daemon has read everything: closing it hangs
     // the line up, and the frames still in the board end's buffer would be lost.

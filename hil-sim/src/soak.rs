@@ -259,7 +259,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         out: options.out.join("simulation"),
         realtime: false,
         hardware: None,
-        grid_motion_filter: false,
+        grid_every_scan: false,
     };
     // The device end stays open until the daemon has read everything (see `demo`).
     let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;

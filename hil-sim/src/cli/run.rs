@@ -60,12 +60,12 @@ pub struct RunArgs {
     /// the same seed is compared with.
     #[arg(long, conflicts_with_all = ["qemu", "hardware"])]
     qemu_config: bool,
-    /// Indoors, insert a scan into the map only once the robot moved 0.2 m or turned 1°
-    /// since the last one (or after 5 s): the map, the pose graph and loop closure then grow
-    /// with the ground covered rather than with the laser's rate. Every scan is still tracked
-    /// and has a pose.
+    /// Indoors, insert every scan into the map. By default a scan is inserted only once the
+    /// robot moved 0.2 m or turned 1° since the last one (or after 5 s), so that the map, the
+    /// pose graph and loop closure grow with the ground covered rather than with the laser's
+    /// rate; every scan is tracked and has a pose either way.
     #[arg(long)]
-    grid_motion_filter: bool,
+    grid_every_scan: bool,
 }
 
 /// Runs the chain and reports its summary; with `--qemu`, also what the image measured.
@@ -78,7 +78,7 @@ pub fn run(args: RunArgs) -> CliResult {
         out: args.out,
         realtime: args.realtime,
         hardware: args.hardware.ports(),
-        grid_motion_filter: args.grid_motion_filter,
+        grid_every_scan: args.grid_every_scan,
     };
     let Some(elf) = args.qemu else {
         let summary = if args.qemu_config {

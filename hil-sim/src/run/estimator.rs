@@ -25,14 +25,17 @@ pub enum Estimator {
 }
 
 impl Estimator {
-    /// Method 2 with the daemon's default configuration, with the motion filter when
-    /// `motion_filter` ([`host::slam::motion_filter`]).
+    /// Method 2 with the daemon's default configuration (its motion filter on,
+    /// [`host::slam::motion_filter`]), or with every scan a node of the map when
+    /// `every_scan`.
     ///
     /// # Errors
     /// The configuration's scan-matcher options are invalid.
-    pub fn grid(motion_filter: bool) -> Result<Estimator, ScanMatchError> {
+    pub fn grid(every_scan: bool) -> Result<Estimator, ScanMatchError> {
         let mut options = SlamConfig::default().grid_pipeline_options();
-        options.slam.motion_filter.enabled = motion_filter;
+        if every_scan {
+            options.slam.motion_filter.enabled = false;
+        }
         Ok(Estimator::Grid(Box::new(GridPipeline::new(options)?)))
     }
 

@@ -76,9 +76,9 @@ pub struct RunOptions {
     pub realtime: bool,
     /// Drive a flashed board on these serial ports instead of the firmware in this process.
     pub hardware: Option<HardwarePorts>,
-    /// Indoors, insert only the scans after which the robot moved 0.2 m or turned 1°
-    /// ([`host::slam::motion_filter`]); otherwise every scan is a node of the map.
-    pub grid_motion_filter: bool,
+    /// Indoors, make every scan a node of the map instead of only those after which the
+    /// robot moved 0.2 m or turned 1° ([`host::slam::motion_filter`], the default).
+    pub grid_every_scan: bool,
 }
 
 /// The serial ports of a flashed board (`--hardware`): the emulators write to the laser and
@@ -435,7 +435,7 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
         out: options.out.clone(),
         realtime: options.realtime,
         hardware: options.hardware.clone(),
-        grid_motion_filter: false,
+        grid_every_scan: false,
     };
     let (mut summary, received) =
         execute(chain, &run_options, run_options.duration_s, lines, None)?;
@@ -498,7 +498,7 @@ fn execute(
     let estimator = if chain.uses_landmarks {
         Estimator::ekf([chain.datum.lat_deg, chain.datum.lon_deg])
     } else {
-        Estimator::grid(options.grid_motion_filter).map_err(io::Error::other)?
+        Estimator::grid(options.grid_every_scan).map_err(io::Error::other)?
     };
     let host = HostSide::new(estimator);
     let duration_us = (duration_s * 1e6).round() as u64;

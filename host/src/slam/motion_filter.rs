@@ -10,16 +10,15 @@
 //! the last node and follow it when loop closures move it. A scan local tracking had to
 //! search for is always inserted.
 //!
-//! The filter is off by default: the loop-closure and refinement settings count scans, and
-//! were set on logs of about one scan per metre, where it inserts every scan anyway
-//! (`docs/method2.md` gives what it does at the laser's real rate).
+//! On logs of about one scan per metre it inserts every scan; at the laser's real rate it
+//! inserts about one scan in eight (`docs/method2.md` gives what that does).
 
 use crate::geometry::Pose2;
 
 /// When a tracked scan is inserted. See the [module documentation](self).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionFilterOptions {
-    /// Whether to filter at all; `false` (the default) inserts every scan.
+    /// Whether to filter at all; `false` inserts every scan.
     pub enabled: bool,
     /// A scan farther than this from the last inserted one is inserted, metres.
     pub max_distance_m: f64,
@@ -32,7 +31,7 @@ pub struct MotionFilterOptions {
 impl Default for MotionFilterOptions {
     fn default() -> Self {
         MotionFilterOptions {
-            enabled: false,
+            enabled: true,
             max_distance_m: 0.2,
             max_angle_rad: 1f64.to_radians(),
             max_time_s: 5.0,
@@ -86,10 +85,7 @@ mod tests {
 
     #[test]
     fn a_scan_is_inserted_after_enough_motion_turn_or_time() {
-        let mut filter = MotionFilter::new(MotionFilterOptions {
-            enabled: true,
-            ..MotionFilterOptions::default()
-        });
+        let mut filter = MotionFilter::new(MotionFilterOptions::default());
         assert!(filter.admits(0.0, Pose2::IDENTITY, false));
         // Standing still, creeping and turning a little: not inserted.
         assert!(!filter.admits(0.1, Pose2::IDENTITY, false));
@@ -111,7 +107,10 @@ mod tests {
 
     #[test]
     fn switched_off_it_inserts_every_scan() {
-        let mut filter = MotionFilter::new(MotionFilterOptions::default());
+        let mut filter = MotionFilter::new(MotionFilterOptions {
+            enabled: false,
+            ..MotionFilterOptions::default()
+        });
         for k in 0..5 {
             assert!(filter.admits(f64::from(k) * 0.01, Pose2::IDENTITY, false));
         }
