@@ -600,6 +600,41 @@ mod tests {
     }
 
     #[test]
+    fn scans_close_in_time_leave_a_node_centimetres_loose_and_scans_far_apart_metres() {
+        // The same 3 m drive in 2.7 cm steps, stamped at a laser's 37.5 Hz and a second apart.
+        let options = SlamOptions::default();
+        let step = Pose2::new(0.027, 0.0, 0.0);
+        let drive = |interval_s: f64| {
+            let mut tracker = LocalTracker::new(options.clone()).unwrap();
+            let mut truth = Pose2::new(-2.0, -0.2, 0.0);
+            let mut nodes = Vec::new();
+            for k in 0..111 {
+                let tracked = tracker.track(f64::from(k) * interval_s, &room_scan(truth), None);
+                assert!(!tracked.lost);
+                if tracked.node.is_some() {
+                    let moved_m = f64::from(k) * step.x_m;
+                    let error_m =
+                        (tracked.pose_in_local.x_m - moved_m).hypot(tracked.pose_in_local.y_m);
+                    nodes.push((tracked.unmeasured_sigma_m, error_m));
+                }
+                truth = truth * step;
+            }
+            nodes
+        };
+        let close = drive(1.0 / 37.5);
+        // One node every 0.2 m or so; once the prior has learnt the steady motion, a node's
+        // constraint is as loose as its scans' predictions (3.3 cm each at the floor).
+        assert!(close.len() > 10, "{}", close.len());
+        let (last_sigma_m, last_error_m) = close[close.len() - 1];
+        assert!(last_sigma_m < 0.15, "{last_sigma_m}");
+        assert!(last_error_m < 0.05, "{last_error_m}");
+        // A second apart, a robot may stop or turn between scans: as loose as before.
+        for (sigma_m, _) in drive(1.0).into_iter().skip(1) {
+            assert!(sigma_m >= options.degenerate_sigma_m, "{sigma_m}");
+        }
+    }
+
+    #[test]
     fn tracking_starts_afresh_after_a_lost_scan() {
         // Every scan inserted, 0.1 m apart.
         let mut options = SlamOptions::default();

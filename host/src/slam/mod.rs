@@ -10,9 +10,8 @@
 //!   [`FastMatcher`](crate::scan_match::FastMatcher) against the last scans finds the pose
 //!   first. Scans go into two overlapping submaps with log-odds ray insertion; a submap is
 //!   finished once its successor holds [`SlamOptions::scans_per_submap`] scans. With the
-//!   [`MotionFilter`] on (it is off by default), only the scans after which the robot moved
-//!   or turned enough are inserted and become nodes; the others are placed relative to the
-//!   last node.
+//!   [`MotionFilter`] on (the default), only the scans after which the robot moved or turned
+//!   enough are inserted and become nodes; the others are placed relative to the last node.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
 //!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
 //!   then aligned on the submap's points; a match good enough becomes a constraint. Which

@@ -28,10 +28,12 @@ pub struct MotionPriorOptions {
     /// Standard deviation of the prediction before any motion was tracked: translation (m),
     /// rotation (rad).
     pub initial_sigma: [f64; 2],
-    /// The learned standard deviation never drops below this: translation (m), rotation (rad).
+    /// The learned standard deviation never drops below this between scans far apart in time:
+    /// translation (m), rotation (rad).
     pub min_sigma: [f64; 2],
-    /// Nor below what a motion can stray from its prediction per second between the scans,
-    /// where that is less than [`Self::min_sigma`]: translation (m/s), rotation (rad/s).
+    /// What a motion can stray from its prediction per second between the scans: the floor
+    /// is the smaller of [`Self::min_sigma`] and this times the longer of the last two
+    /// intervals, translation (m/s), rotation (rad/s).
     pub max_stray_per_s: [f64; 2],
     /// Nor grows above this.
     pub max_sigma: [f64; 2],
@@ -51,7 +53,7 @@ impl Default for MotionPriorOptions {
             initial_sigma: [0.5, 30f64.to_radians()],
             min_sigma: [0.5, 30f64.to_radians()],
             // The floor above from 0.4 s between scans on (every benchmark log but a few of
-            // Intel's scans); 1.9 cm and 1.1° at 37.5 Hz.
+            // Intel's scans); 3.3 cm and 2° at 37.5 Hz.
             max_stray_per_s: [1.25, 75f64.to_radians()],
             max_sigma: [3.0, 90f64.to_radians()],
             learning_rate: 0.1,
@@ -69,7 +71,7 @@ pub struct MotionPrior {
     /// Running mean of the squared heading innovation, rad².
     variance_rotation_rad2: f64,
     /// Time between the last two scans and between the two before, s (`None` before there
-    /// were such scans, or where the clock went backwards).
+    /// were such scans, or where the time did not advance: the floor is then `min_sigma`).
     intervals_s: [Option<f64>; 2],
 }
 
