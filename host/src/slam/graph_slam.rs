@@ -119,11 +119,16 @@ pub struct GraphSlam {
     uncertain_closer: LoopCloser,
     /// The last node local tracking could not place, where it started afresh.
     last_lost_node: Option<usize>,
+    /// For every finished submap, the node last searched in it by `closer`.
+    last_search: Vec<usize>,
     /// For every finished submap, the node last searched in it by `uncertain_closer`.
     last_uncertain_search: Vec<usize>,
     /// `map_from_local` as of the last optimisation.
     map_from_local: Pose2,
     closures_since_optimization: usize,
+    /// The χ² of those constraints at the poses they were added to, weighted by their robust
+    /// kernel, in sum (the unrobust ones infinite: they are added to pull).
+    chi2_since_optimization: f64,
     confirmation: ClosureConfirmation,
     /// Searches chains of earlier scans.
     chains: ChainCloser,
@@ -153,10 +158,12 @@ impl GraphSlam {
             scan_in_node: Vec::new(),
             finished: Vec::new(),
             uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
+            last_search: Vec::new(),
             last_uncertain_search: Vec::new(),
             last_lost_node: None,
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
+            chi2_since_optimization: 0.0,
             confirmation: ClosureConfirmation::new(options.loop_closure.confirmation),
             chains: ChainCloser::new(&options)?,
             scans: Vec::new(),
@@ -232,6 +239,7 @@ impl GraphSlam {
             self.stats.submaps += 1;
             let reference = self.closer.prepare(&submap.reference_scan());
             self.finished.push((submap, reference));
+            self.last_search.push(0);
             self.last_uncertain_search.push(0);
         }
         let every = self.options.loop_closure.every_n_scans.max(1);
@@ -252,7 +260,7 @@ impl GraphSlam {
             }
         }
         self.scans.push(scan);
-        if self.closures_since_optimization > 0 {
+        if self.chi2_since_optimization > self.options.solve_above_chi2 {
             self.optimize();
         }
         self.node_pose_in_map(node).unwrap_or(pose_in_map)
@@ -337,12 +345,15 @@ impl GraphSlam {
     /// ([`Self::close_loops_beyond_window`]) if none did.
     ///
     /// A submap is searched as usual when its frame lies within
-    /// [`LoopClosureOptions::max_distance_m`]. Where the reach
+    /// [`LoopClosureOptions::max_distance_m`], at most
+    /// [`LoopClosureOptions::max_searches_per_scan`] of them: those searched longest ago, so
+    /// that every near submap is searched in turn however many there are. Where the reach
     /// ([`LoopClosureOptions::gate_sigmas`] standard deviations) of the scan's pose relative
     /// to a submap goes beyond the usual window, the submap is one to search wider if its
     /// frame lies within that distance plus the reach.
     ///
     /// [`LoopClosureOptions::max_distance_m`]: super::LoopClosureOptions::max_distance_m
+    /// [`LoopClosureOptions::max_searches_per_scan`]: super::LoopClosureOptions::max_searches_per_scan
     /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
     fn close_loops(
         &mut self,
@@ -384,6 +395,7 @@ impl GraphSlam {
                 distance_m,
                 submap: index,
                 guess_in_submap,
+                reach_m,
             };
             if distance_m <= options.max_distance_m {
                 near.push(guess);
@@ -394,9 +406,18 @@ impl GraphSlam {
                 beyond_window.push(guess);
             }
         }
-        near.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m));
+        // Those searched longest ago first (never, before any), then the most uncertain, then
+        // (all as uncertain when the reach is not computed) the nearest.
+        near.sort_by(|a, b| {
+            let last = |guess: &SubmapGuess| self.last_search[guess.submap];
+            last(a)
+                .cmp(&last(b))
+                .then(b.reach_m.total_cmp(&a.reach_m))
+                .then(a.distance_m.total_cmp(&b.distance_m))
+        });
         let mut taken = false;
-        for guess in near {
+        for guess in near.into_iter().take(options.max_searches_per_scan) {
+            self.last_search[guess.submap] = node;
             let (submap, reference) = &self.finished[guess.submap];
             self.stats.loop_closure_searches += 1;
             let closure = self
@@ -536,6 +557,14 @@ impl GraphSlam {
         }
         self.closure_edges.push(id);
         self.closures_since_optimization += 1;
+        // What the solve's first step sees of it: its χ² weighted by the kernel.
+        self.chi2_since_optimization += if within_uncertainty {
+            f64::INFINITY
+        } else {
+            self.graph
+                .edge_chi2(id)
+                .map_or(f64::INFINITY, |chi2| kernel.weight(chi2) * chi2)
+        };
         true
     }
 
@@ -565,6 +594,7 @@ impl GraphSlam {
 
     fn optimize(&mut self) {
         self.closures_since_optimization = 0;
+        self.chi2_since_optimization = 0.0;
         self.stats.optimizations += 1;
         if self.graph.optimize(&self.options.optimize).is_err() {
             self.stats.failed_optimizations += 1;
@@ -604,6 +634,11 @@ struct SubmapGuess {
     submap: usize,
     /// The scan's estimated pose in the submap (`submap_from_robot`).
     guess_in_submap: Pose2,
+    /// How far the uncertainty of that pose reaches along its most uncertain direction
+    /// ([`LoopClosureOptions::gate_sigmas`] standard deviations), metres; 0 where not known.
+    ///
+    /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
+    reach_m: f64,
 }
 
 /// How far `gate_sigmas` standard deviations of a relative pose with `covariance` (x, y,
@@ -690,6 +725,47 @@ mod tests {
             worst_m = worst_m.max(error.x_m.hypot(error.y_m));
         }
         // Over 33 m of noise-free scans; local tracking is the limit.
+        assert!(worst_m < 0.10, "worst position error {worst_m} m");
+    }
+
+    #[test]
+    fn laps_round_a_place_search_a_bounded_few_submaps_and_solve_only_on_disagreement() {
+        let walls = ring_walls();
+        let truth = ring_trajectory(4.0);
+        let options = SlamOptions::default();
+        let budget = options.loop_closure.max_searches_per_scan;
+        let every = options.loop_closure.every_n_scans;
+        let mut slam = GraphSlam::new(options).unwrap();
+        for (k, pose) in truth.iter().enumerate() {
+            let before = slam.stats().loop_closure_searches;
+            slam.add_scan(k as f64 * 0.1, &cast_front_scan(&walls, *pose), None);
+            let searches = slam.stats().loop_closure_searches - before;
+            // The usual searches, and those of a pose too uncertain for the usual window.
+            let most = budget + slam.options.uncertain_closure.max_searches_per_scan;
+            assert!(searches <= most, "scan {k}: {searches} searches");
+        }
+        let stats = slam.stats();
+        // By the fourth lap every place has more submaps near it than the budget.
+        let finished = stats.submaps;
+        assert!(finished > 2 * budget, "{stats:?}");
+        assert!(
+            stats.loop_closure_searches <= budget * truth.len().div_ceil(every) + 10,
+            "{stats:?}"
+        );
+        // Closures on the later laps agree with the graph: far fewer solves than closures.
+        assert!(stats.loop_closures > 40, "{stats:?}");
+        assert!(stats.optimizations * 4 < stats.loop_closures, "{stats:?}");
+        let result = slam.finish();
+        let origin = truth[0].inverse();
+        let worst_m = result
+            .poses_in_map
+            .iter()
+            .zip(&truth)
+            .map(|(estimate, truth)| {
+                let error = (origin * *truth).inverse() * *estimate;
+                error.x_m.hypot(error.y_m)
+            })
+            .fold(0.0, f64::max);
         assert!(worst_m < 0.10, "worst position error {worst_m} m");
     }
 

@@ -56,6 +56,14 @@ pub struct SlamOptions {
     pub loop_closure_kernel: RobustKernel,
     /// Pose-graph solver.
     pub optimize: OptimizeOptions,
+    /// The graph is solved again once the constraints added since its last solve disagree
+    /// with its poses by more than this χ² in sum, each weighted by its robust kernel as the
+    /// solve would; 7.81, the 95 % point of χ² with three degrees of freedom. Constraints the
+    /// poses already satisfy within their covariance would move them by less than the
+    /// constraints' own uncertainty, and those the kernel switches off would not move them:
+    /// they wait for the next solve (or the end of the run) instead of costing a solve of the
+    /// whole graph each.
+    pub solve_above_chi2: f64,
 }
 
 impl SlamOptions {
@@ -114,6 +122,7 @@ impl Default for SlamOptions {
             loop_closure_sigma: [0.03, 0.5f64.to_radians()],
             loop_closure_kernel: RobustKernel::Dcs { phi: 10.0 },
             optimize: OptimizeOptions::default(),
+            solve_above_chi2: 7.81,
         }
     }
 }
@@ -226,6 +235,12 @@ pub struct LoopClosureOptions {
     /// Submaps whose last scan is this recent (in scans) are not searched (local tracking
     /// covers them).
     pub min_scans_apart: usize,
+    /// Of the submaps within [`Self::max_distance_m`], at most this many are searched for a
+    /// scan: those searched longest ago, then those the scan's pose is most uncertain
+    /// relative to (where a closure tells the graph the most). A place passed many times has
+    /// tens of submaps near it, each then searched in turn by the scans that pass, so the
+    /// work per scan stays bounded however often the robot comes back.
+    pub max_searches_per_scan: usize,
 }
 
 impl LoopClosureOptions {
@@ -256,6 +271,7 @@ impl Default for LoopClosureOptions {
             min_probability: 0.6,
             confirmation: ConfirmationOptions::default(),
             min_scans_apart: 30,
+            max_searches_per_scan: 4,
         }
     }
 }
