@@ -16,7 +16,7 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
     let timing = &summary.pipeline;
     eprintln!(
         "hil-sim: the pipeline took {:.2} ms per scan on average; p50 {:.2}, p99 {:.2}, max {:.2} ms \
-         over {} scans; first 1000 {:.2} ms, last 1000 {:.2} ms (performance.json)",
+         over {} scans; first 1000 {:.2} ms, last 1000 {:.2} ms; peak memory {} (performance.json)",
         timing.mean_ms,
         timing.p50_ms,
         timing.p99_ms,
@@ -24,6 +24,9 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
         timing.scans,
         timing.first_1000_mean_ms,
         timing.last_1000_mean_ms,
+        timing
+            .peak_resident_mib
+            .map_or("not known".to_string(), |mib| format!("{mib:.0} MiB")),
     );
     if summary.accounting_balanced {
         Ok(())

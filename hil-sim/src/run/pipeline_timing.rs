@@ -25,6 +25,10 @@ pub struct PipelineTiming {
     pub first_1000_mean_ms: f64,
     /// See [`Self::first_1000_mean_ms`].
     pub last_1000_mean_ms: f64,
+    /// The largest resident memory of the whole run's process (sensors, firmware and host
+    /// pipeline) at any time, MiB: the kernel's high-water mark (`VmHWM`), read at the end.
+    /// `None` where the system does not give it (no `/proc`).
+    pub peak_resident_mib: Option<f64>,
 }
 
 impl PipelineTiming {
@@ -53,8 +57,23 @@ impl PipelineTiming {
             max_ms: quantile(1.0),
             first_1000_mean_ms: mean(&step_us[..window]),
             last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
+            peak_resident_mib: None,
         }
     }
+}
+
+/// This process's peak resident memory so far, MiB (`VmHWM` of `/proc/self/status`); `None`
+/// where there is no such file or field.
+pub fn peak_resident_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib: f64 = status
+        .lines()
+        .find_map(|line| line.strip_prefix("VmHWM:"))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    Some(kib / 1024.0)
 }
 
 #[cfg(test)]
@@ -76,6 +95,20 @@ mod tests {
             PipelineTiming::from_step_times(&[]),
             PipelineTiming::default()
         );
+    }
+
+    #[test]
+    fn peak_memory_is_read_where_the_system_gives_it() {
+        let Some(peak_mib) = peak_resident_mib() else {
+            assert!(!std::path::Path::new("/proc/self/status").exists());
+            return;
+        };
+        // This test process holds at least its own code, and far less than a terabyte.
+        assert!(peak_mib > 1.0 && peak_mib < 1e6, "{peak_mib} MiB");
+        let held = std::hint::black_box(vec![1u8; 64 << 20]);
+        let after = peak_resident_mib().unwrap_or(0.0);
+        assert!(after >= peak_mib.max(64.0), "{after} MiB after 64 MiB held");
+        drop(held);
     }
 
     #[test]

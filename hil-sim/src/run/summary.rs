@@ -187,7 +187,10 @@ impl RunSummary {
             estimate: estimate_error(&host.records, host.geo_referenced),
             laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
-            pipeline: PipelineTiming::from_step_times(&host.scan_step_us),
+            pipeline: PipelineTiming {
+                peak_resident_mib: super::pipeline_timing::peak_resident_mib(),
+                ..PipelineTiming::from_step_times(&host.scan_step_us)
+            },
         }
     }
 }
