@@ -16,8 +16,9 @@
 //! * `fixes.jsonl`: every GPS fix message the host decoded, one JSON object a line, without
 //!   the board's time stamp (`stamp_us` is 0);
 //! * `summary.json`: the accounting ([`RunSummary`]);
-//! * `performance.json`: how long the host's pipeline took per scan on this machine
-//!   ([`pipeline_timing::PipelineTiming`]; the one output that differs between runs);
+//! * `performance.json`: how long the host's pipeline took per scan on this machine, and the
+//!   peak memory ([`pipeline_timing::PipelineTiming`]; the one output that differs between
+//!   runs);
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host

@@ -13,7 +13,7 @@
 //!   [`MotionFilter`] on (the default), only the scans after which the robot moved or turned
 //!   enough are inserted and become nodes; the others are placed relative to the last node.
 //! * **Loop closure** ([`LoopCloser`]): scans are searched in finished submaps near their
-//!   estimated pose with the fast matcher over a wide window (metres and tens of degrees),
+//!   estimated pose (a few a scan, each near submap in turn) with the fast matcher over a wide window (metres and tens of degrees),
 //!   then aligned on the submap's points; a match good enough becomes a constraint. Which
 //!   submaps are near, and how wide the window must be, follows from how uncertain the scan's
 //!   pose is relative to each submap, compounded along the pose graph
@@ -25,7 +25,8 @@
 //! * **Pose graph** ([`crate::pose_graph`]): one node per inserted scan, an edge per consecutive pair
 //!   from local tracking (left almost free along a corridor's axis, [`degeneracy`]), an edge
 //!   per loop closure (robust kernel) from the submap's first
-//!   scan; solved with a sparse Cholesky factorisation whenever loops were found.
+//!   scan; solved with a sparse Cholesky factorisation once the closures added since the last
+//!   solve disagree with the graph ([`SlamOptions::solve_above_chi2`]), and at the end.
 //! * **Final refinement** ([`final_refinement`]): at the end of a run, every scan is aligned
 //!   on the finished submaps near it, and the alignments that fit become constraints too.
 //!

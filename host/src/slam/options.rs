@@ -62,7 +62,8 @@ pub struct SlamOptions {
     /// poses already satisfy within their covariance would move them by less than the
     /// constraints' own uncertainty, and those the kernel switches off would not move them:
     /// they wait for the next solve (or the end of the run) instead of costing a solve of the
-    /// whole graph each.
+    /// whole graph each. With the default kernel one closure adds at most `Φ` (10) however
+    /// far off it is, so one alone triggers a solve only when `Φ` exceeds this value.
     pub solve_above_chi2: f64,
 }
 
@@ -192,7 +193,7 @@ impl Default for LocalTrackingOptions {
 pub struct LoopClosureOptions {
     /// Whether to search at all.
     pub enabled: bool,
-    /// Search every this many scans.
+    /// Search every this many nodes (scans the motion filter inserted).
     pub every_n_scans: usize,
     /// Half width of the translation window, metres.
     pub search_window_m: f64,
@@ -294,7 +295,7 @@ pub struct ChainClosureOptions {
     pub half_length_scans: usize,
     /// The search and its acceptance. Its `max_distance_m` bounds the distance to the
     /// nearest earlier scan, and its `min_scans_apart` how recent that scan may be; its
-    /// `enabled` and `every_n_scans` are not used (chains are searched on the scans loop
+    /// `enabled`, `every_n_scans` and `max_searches_per_scan` are not used (chains are searched on the scans loop
     /// closure searches, and on every scan while a chain closure waits).
     pub search: LoopClosureOptions,
 }
@@ -343,7 +344,8 @@ pub struct UncertainClosureOptions {
     /// Submaps searched this way per searched scan, at most.
     pub max_searches_per_scan: usize,
     /// The search and its acceptance; its `max_distance_m`, `gate_sigmas`, `enabled`,
-    /// `every_n_scans` and `min_scans_apart` are those of [`LoopClosureOptions`].
+    /// `every_n_scans` and `min_scans_apart` are those of [`LoopClosureOptions`], and its
+    /// `max_searches_per_scan` is not used (see [`Self::max_searches_per_scan`]).
     pub search: LoopClosureOptions,
 }
 
