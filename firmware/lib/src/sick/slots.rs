@@ -23,17 +23,26 @@
 //! before it: the line is quiet after a telegram, so its last byte is read as it arrives.
 //! (The first byte's stamp is no better when read on time, and after a resynchronisation the
 //! receiver interpolates it, possibly too early.) Starts are placed on a grid of period `P`
-//! anchored at an accepted telegram's start, at the nearest grid point: a start read up to
-//! `P/2` late still lands in its own slot (107 ms at 38 400 Bd, 13 ms at 500 kBd). A start
-//! read later lands in the next one; the next telegram's start, at or before it, shows that,
-//! and the count is corrected. The anchor moves along with each telegram whose start lies
-//! within `(P − A)/4` of the grid, following the sensor's clock, which drifts from the board's.
+//! at the nearest grid point: a start read up to `P/2` late lands in its own slot (107 ms at
+//! 38 400 Bd, 13 ms at 500 kBd), one read later in a later slot. The grid is anchored at the
+//! first accepted telegram's start and moves along with each start read within `(P − A)/4`
+//! of it, following the sensor's clock, which drifts from the board's; its slots keep their
+//! numbers.
+//!
+//! The scans missed among accepted telegrams are the slots they span less their number. As a
+//! start is never read early, each one's slot is its true slot or a later one; so the
+//! telegram `i` places at slot `s_i` began the grid's run no later than `s_i − i`, and the
+//! least of those bounds is taken as its start. The last one's slot less the telegrams
+//! before it, less that least bound, is the count: exact when the last telegram was read in
+//! time, however many before it were read late (a reader that fell behind for a while, a
+//! burst of several telegrams), and a telegram read late by whole periods is no exception.
+//! While the last one was read late the count is high, until the next one is read in time.
 //!
 //! Bytes are placed in slots whose boundaries fall `(P − A)/2` before the grid points, in the
 //! middle of the quiet gap between telegrams. Before the first accepted telegram of a session
-//! the grid is anchored at the first byte heard; the first accepted telegram's distance from
-//! it counts the ones before it, exactly while the two are read late by amounts less than
-//! `P/2` apart.
+//! the grid is anchored at the first byte heard, in slot 0, which bounds the run's start too:
+//! the first accepted telegram's slot counts the ones before it, exactly while the two are
+//! read late by amounts less than `P/2` apart.
 //!
 //! After a silence of [`BREAK_US`] the stream is broken: a power-cycled sensor says hello at
 //! another baud rate (`90h` at 9 600 Bd reads as noise at 500 kBd). The grid is anchored anew
@@ -64,16 +73,19 @@ const BITS_PER_BYTE: u64 = 10;
 pub struct ScanSlots {
     /// The current session's timing, `None` when not streaming.
     timing: Option<Timing>,
-    /// Slot 0 of the grid, ns: an accepted telegram's start, or the first byte heard.
+    /// A time on the grid, ns: an accepted telegram's start read on time, or the first byte
+    /// heard. `None` before the first byte of a session or after a break.
     anchor_ns: Option<u64>,
-    /// The slot of the last accepted telegram on the grid; `None` while the grid is anchored
-    /// at the first byte heard.
-    scan_slot: Option<u64>,
-    /// When the last accepted telegram's start lay off the grid (read late): the slot of the
-    /// one accepted before it, below which it cannot be moved back.
-    scan_slot_floor: Option<u64>,
+    /// The slot `anchor_ns` lies in; the grid's first byte lies in slot 0.
+    anchor_slot: i64,
+    /// Telegrams accepted on this grid.
+    accepted: i64,
+    /// The slot of the last accepted telegram, less the telegrams accepted before it.
+    lead_last: i64,
+    /// The least of those over the grid's accepted telegrams, and 0 for its first byte.
+    lead_min: i64,
     /// The highest slot with bytes.
-    last_slot: u64,
+    last_slot: i64,
     /// The last byte's stamp, ns.
     last_byte_ns: u64,
     /// Slots with bytes past the last accepted telegram's (or since the grid was anchored).
@@ -82,8 +94,14 @@ pub struct ScanSlots {
     after_break: u32,
     /// Whether a break happened since the last accepted telegram.
     broken: bool,
-    /// Scans counted as missed, since boot.
+    /// Scans counted as missed on grids that ended, since boot.
     missed: u32,
+}
+
+/// A time or a duration in ns as a signed number (`u64` ns reach 584 years; half of that
+/// fits).
+fn signed(ns: u64) -> i64 {
+    i64::try_from(ns).unwrap_or(i64::MAX)
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -100,14 +118,21 @@ impl Timing {
         self.period_ns.saturating_sub(self.airtime_ns) / 2
     }
 
-    /// The slot a byte at `t_ns` lies in, on the grid anchored at `anchor_ns`.
-    fn slot(&self, anchor_ns: u64, t_ns: u64) -> u64 {
-        (t_ns.saturating_sub(anchor_ns) + self.lead_ns()) / self.period_ns
+    /// Whole periods from `anchor_ns` to `t_ns` after shifting `t_ns` by `shift_ns`, rounded
+    /// down; negative before the anchor.
+    fn periods(&self, anchor_ns: u64, t_ns: u64, shift_ns: u64) -> i64 {
+        let offset = signed(t_ns) - signed(anchor_ns) + signed(shift_ns);
+        offset.div_euclid(signed(self.period_ns).max(1))
     }
 
-    /// The grid point nearest to `t_ns`.
-    fn nearest(&self, anchor_ns: u64, t_ns: u64) -> u64 {
-        (t_ns.saturating_sub(anchor_ns) + self.period_ns / 2) / self.period_ns
+    /// The slot a byte at `t_ns` lies in, counted from the anchor's.
+    fn slot(&self, anchor_ns: u64, t_ns: u64) -> i64 {
+        self.periods(anchor_ns, t_ns, self.lead_ns())
+    }
+
+    /// The grid point nearest to `t_ns`, counted from the anchor.
+    fn nearest(&self, anchor_ns: u64, t_ns: u64) -> i64 {
+        self.periods(anchor_ns, t_ns, self.period_ns / 2)
     }
 }
 
@@ -117,8 +142,10 @@ impl ScanSlots {
         ScanSlots {
             timing: None,
             anchor_ns: None,
-            scan_slot: None,
-            scan_slot_floor: None,
+            anchor_slot: 0,
+            accepted: 0,
+            lead_last: 0,
+            lead_min: 0,
             last_slot: 0,
             last_byte_ns: 0,
             pending: 0,
@@ -154,16 +181,8 @@ impl ScanSlots {
     /// with bytes after the last accepted telegram count as missed, but those heard after a
     /// break, which are discarded.
     pub fn end(&mut self) {
-        self.missed = self
-            .missed
-            .wrapping_add(self.pending.wrapping_sub(self.after_break));
+        self.close_grid();
         self.timing = None;
-        self.anchor_ns = None;
-        self.scan_slot = None;
-        self.scan_slot_floor = None;
-        self.last_slot = 0;
-        self.pending = 0;
-        self.after_break = 0;
         self.broken = false;
     }
 
@@ -176,23 +195,17 @@ impl ScanSlots {
         if self.anchor_ns.is_some() && silence_ns > BREAK_US * 1_000 {
             // What follows may be noise from a restarting sensor: counted apart, on a grid of
             // its own.
-            self.missed = self
-                .missed
-                .wrapping_add(self.pending.wrapping_sub(self.after_break));
-            self.pending = 0;
-            self.after_break = 0;
+            self.close_grid();
             self.broken = true;
-            self.anchor_ns = None;
         }
         let Some(anchor_ns) = self.anchor_ns else {
             self.anchor_ns = Some(t_ns);
-            self.scan_slot = None;
-            self.scan_slot_floor = None;
-            self.last_slot = 0;
             self.count_slot();
             return;
         };
-        let slot = timing.slot(anchor_ns, t_ns);
+        let slot = self
+            .anchor_slot
+            .saturating_add(timing.slot(anchor_ns, t_ns));
         if slot > self.last_slot {
             self.last_slot = slot;
             self.count_slot();
@@ -202,76 +215,70 @@ impl ScanSlots {
     /// A scan telegram whose last byte arrived at `last_byte_us` was accepted. Call it once
     /// that byte has been fed to [`Self::on_byte`].
     ///
-    /// Counts the scans missed since the telegram accepted before it (or, the first of a
-    /// grid, since the first byte heard) from the distance between their starts; see the
-    /// [module documentation](self).
+    /// Counts the scans missed on the grid from the slots its accepted telegrams span; see
+    /// the [module documentation](self).
     pub fn on_scan(&mut self, last_byte_us: u64) {
         let Some(timing) = self.timing else { return };
         let start_ns = last_byte_us
             .saturating_mul(1_000)
             .saturating_sub(timing.airtime_ns.saturating_sub(timing.char_ns));
-        // The bytes heard since the last accepted telegram are counted by distance instead
+        // The bytes heard since the last accepted telegram are counted by the slots instead
         // (and are certain now, after a break too).
         self.pending = 0;
         self.after_break = 0;
         self.broken = false;
-        let (Some(anchor_ns), Some(previous)) = (self.anchor_ns, self.scan_slot) else {
-            // The first accepted telegram of the grid, which is anchored at the first byte
-            // heard: normally the first byte of a telegram. The telegrams from that one to
-            // this one's predecessor were missed.
-            if let Some(anchor_ns) = self.anchor_ns {
-                self.count_missed(timing.nearest(anchor_ns, start_ns));
-            }
-            self.set_anchor(start_ns);
-            return;
-        };
+        let anchor_ns = *self.anchor_ns.get_or_insert(start_ns);
         let nearest = timing.nearest(anchor_ns, start_ns);
-        let (previous, slot) = if nearest > previous {
-            (previous, nearest)
-        } else {
-            // At or before the one accepted last, which was read late: that one lies at most
-            // just before this one, and after the one accepted before it.
-            let floor = self.scan_slot_floor.map_or(previous, |floor| floor + 1);
-            let corrected = nearest
-                .saturating_sub(1)
-                .clamp(floor.min(previous), previous);
-            self.missed = self
-                .missed
-                .wrapping_sub(u32::try_from(previous - corrected).unwrap_or(u32::MAX));
-            (corrected, nearest.max(corrected + 1))
-        };
-        self.count_missed(slot - previous - 1);
-        let on_grid_ns = anchor_ns + nearest * timing.period_ns;
-        if start_ns.abs_diff(on_grid_ns) <= timing.lead_ns() / 2 {
-            self.set_anchor(start_ns);
-        } else {
-            self.scan_slot_floor = Some(previous);
-            self.scan_slot = Some(slot);
-            self.last_slot = slot;
+        let slot = self.anchor_slot.saturating_add(nearest);
+        self.lead_last = slot.saturating_sub(self.accepted);
+        self.lead_min = self.lead_min.min(self.lead_last);
+        self.accepted += 1;
+        self.last_slot = self.last_slot.max(slot);
+        // The grid's first telegram anchors it (a start is read better than a first byte),
+        // and a start read on time moves it along, following the sensor's clock.
+        let on_grid_ns =
+            signed(anchor_ns).saturating_add(nearest.saturating_mul(signed(timing.period_ns)));
+        let on_time = signed(start_ns).abs_diff(on_grid_ns) <= timing.lead_ns() / 2;
+        if self.accepted == 1 || on_time {
+            self.anchor_ns = Some(start_ns);
+            self.anchor_slot = slot;
         }
     }
 
-    /// Scans known to have been sent but not accepted, since boot (wraps at 2³²): counted by
-    /// distance between accepted telegrams, plus the slots with bytes after the last one
-    /// (which its successor's distance may still correct), but those heard after a break
-    /// until a telegram accepted after them confirms them.
+    /// Scans known to have been sent but not accepted, since boot (wraps at 2³²): on the
+    /// current grid, the slots its accepted telegrams span less those telegrams (which a
+    /// telegram read on time after late ones corrects), plus the slots with bytes after the
+    /// last one, but those heard after a break until a telegram accepted after them confirms
+    /// them.
     pub fn missed(&self) -> u32 {
         self.missed
+            .wrapping_add(self.grid_missed())
             .wrapping_add(self.pending.wrapping_sub(self.after_break))
     }
 
-    /// Anchors the grid at the start of an accepted telegram.
-    fn set_anchor(&mut self, start_ns: u64) {
-        self.anchor_ns = Some(start_ns);
-        self.scan_slot = Some(0);
-        self.scan_slot_floor = None;
-        self.last_slot = 0;
+    /// Scans missed on the current grid by its accepted telegrams: the slots from the first
+    /// byte's to the last accepted telegram's, less the telegrams. Each start is read on time
+    /// or late, never early: the lowest slot less the telegrams before it bounds where the
+    /// grid's telegrams began.
+    fn grid_missed(&self) -> u32 {
+        u32::try_from(self.lead_last.saturating_sub(self.lead_min)).unwrap_or(u32::MAX)
     }
 
-    fn count_missed(&mut self, scans: u64) {
+    /// Counts what the current grid holds as missed (but the slots heard after a break) and
+    /// forgets it: a break, or the session's end.
+    fn close_grid(&mut self) {
         self.missed = self
             .missed
-            .wrapping_add(u32::try_from(scans).unwrap_or(u32::MAX));
+            .wrapping_add(self.grid_missed())
+            .wrapping_add(self.pending.wrapping_sub(self.after_break));
+        self.anchor_ns = None;
+        self.anchor_slot = 0;
+        self.accepted = 0;
+        self.lead_last = 0;
+        self.lead_min = 0;
+        self.last_slot = 0;
+        self.pending = 0;
+        self.after_break = 0;
     }
 
     fn count_slot(&mut self) {
@@ -573,6 +580,47 @@ mod tests {
         held_up_telegram(&mut slots, 3 * SLOW_PERIOD_US, 0, 0);
         let last_us = held_up_telegram(&mut slots, 4 * SLOW_PERIOD_US, 0, 0);
         slots.on_scan(last_us);
+        assert_eq!(slots.missed(), 1);
+    }
+    #[test]
+    fn a_run_of_telegrams_read_late_is_counted_by_the_next_on_time() {
+        // 500 kBd; the reader falls 20 ms behind (more than half a period) for a run of
+        // telegrams, each read in one burst 20 ms after its end, which puts each start nearer
+        // the next slot than its own; the one after the run is read on time. In the second
+        // run one telegram is damaged.
+        let mut slots = streaming();
+        telegram(&mut slots, 0);
+        for (first, damaged) in [(1, None), (5, Some(7))] {
+            for k in first..first + 3 {
+                let read_us = k * PERIOD_US + AIRTIME_US + 20_000;
+                let last_us = read_in_one_burst(&mut slots, read_us, 732, CHAR_US);
+                if Some(k) != damaged {
+                    slots.on_scan(last_us);
+                }
+            }
+            telegram(&mut slots, (first + 3) * PERIOD_US);
+        }
+        assert_eq!(slots.missed(), 1);
+        slots.end();
+        assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn telegrams_read_whole_periods_late_are_placed_by_the_next_on_time() {
+        // 500 kBd; the reader stalls for two periods: three telegrams are read in one burst
+        // 1 ms after the third's end, the first of them two periods late, which puts its
+        // start on the grid. The next one is read on time.
+        let mut slots = streaming();
+        telegram(&mut slots, 5_000);
+        let read_us = 5_000 + 3 * PERIOD_US + AIRTIME_US + 1_000;
+        for _ in 1..=3 {
+            let last_us = read_in_one_burst(&mut slots, read_us, 732, CHAR_US);
+            slots.on_scan(last_us);
+        }
+        telegram(&mut slots, 5_000 + 4 * PERIOD_US);
+        assert_eq!(slots.missed(), 0);
+        // One lost whole after them still counts.
+        telegram(&mut slots, 5_000 + 6 * PERIOD_US);
         assert_eq!(slots.missed(), 1);
     }
 }
