@@ -14,6 +14,7 @@ pub mod executor;
 pub mod faults;
 pub mod landmark_sim;
 pub mod nees;
+pub mod proc_status;
 pub mod pty;
 pub mod qemu;
 pub mod replay;

@@ -38,6 +38,7 @@ use serde::Serialize;
 
 use crate::demo::DaemonSetup;
 use crate::faults::{FaultSpec, GpsOutage};
+use crate::proc_status::status_field;
 use crate::run::{RunOptions, RunSummary, run_relayed};
 use crate::world::WorldKind;
 
@@ -481,11 +482,7 @@ impl Drop for DaemonProcess {
 fn take_sample(pid: u32, web: SocketAddr, started: Instant) -> io::Result<SoakSample> {
     let status = fs::read_to_string(format!("/proc/{pid}/status"))?;
     let field = |name: &str| {
-        status
-            .lines()
-            .find_map(|line| line.strip_prefix(name))
-            .and_then(|rest| rest.split_whitespace().next())
-            .and_then(|value| value.parse::<u64>().ok())
+        status_field(&status, name)
             .ok_or_else(|| io::Error::other(format!("/proc/{pid}/status has no {name}")))
     };
     let state = api_state(web)?;

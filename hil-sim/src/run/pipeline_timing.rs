@@ -67,14 +67,8 @@ impl PipelineTiming {
 /// where there is no such file or field.
 pub fn peak_resident_mib() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kib: f64 = status
-        .lines()
-        .find_map(|line| line.strip_prefix("VmHWM:"))?
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()?;
-    Some(kib / 1024.0)
+    let kib = crate::proc_status::status_field(&status, "VmHWM:")?;
+    Some(kib as f64 / 1024.0)
 }
 
 #[cfg(test)]
