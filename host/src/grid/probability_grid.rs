@@ -80,6 +80,11 @@ pub struct ProbabilityGrid {
 }
 
 impl ProbabilityGrid {
+    /// Gives back the room kept for growth: for a grid that will not grow again.
+    pub fn shrink_to_fit(&mut self) {
+        self.log_odds.shrink_to_fit();
+    }
+
     /// An empty grid (no cells yet) of `resolution_m` metres per cell. Cell corners sit at whole
     /// multiples of `resolution_m` from the grid-frame origin, whatever the grid grows to.
     ///

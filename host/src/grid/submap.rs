@@ -120,10 +120,12 @@ impl Submap {
         self.finished
     }
 
-    /// Marks the submap finished and releases the inserter's scratch memory.
+    /// Marks the submap finished, releases the inserter's scratch memory and the grid's room
+    /// for growth.
     pub fn finish(&mut self) {
         self.finished = true;
         self.inserter = RangeInserter::new(*self.inserter.options());
+        self.grid.shrink_to_fit();
     }
 
     /// Grows the grid at once to hold every cell that inserting each of `scans` (with its

@@ -153,7 +153,9 @@ impl ChainCloser {
             {
                 submap.insert_points(first + chained, scan, pose);
             }
-            let reference = self.closer.prepare(&submap.reference_scan());
+            let reference = self
+                .closer
+                .prepare(&submap.reference_scan().unwrap_or_default());
             self.last_chain = Some(DrawnChain {
                 key,
                 submap,

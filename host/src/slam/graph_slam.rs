@@ -236,9 +236,15 @@ impl GraphSlam {
         if tracked.lost {
             self.last_lost_node = Some(node);
         }
-        for submap in tracked.finished_submaps {
+        for mut submap in tracked.finished_submaps {
             self.stats.submaps += 1;
-            let reference = self.closer.prepare(&submap.reference_scan());
+            let reference_scan = submap
+                .reference_scan()
+                .unwrap_or_else(|| submap.reference_scan_from(|n| self.node_scan(n, &scan)));
+            let reference = self.closer.prepare(&reference_scan);
+            // The end points are the node scans again: drawn from those when searched around
+            // a guess.
+            submap.forget_end_points();
             self.finished.push((submap, reference));
             self.last_search.push(0);
             self.last_uncertain_search.push(0);
@@ -336,6 +342,14 @@ impl GraphSlam {
     /// Every node's pose in the map frame as the graph holds it now.
     fn node_poses_in_map(&self) -> Vec<Pose2> {
         self.graph.nodes().iter().map(|n| n.pose_in_map).collect()
+    }
+
+    /// The scan of `node`: a kept one, or `current`, the scan of the node being added (kept
+    /// once it is added).
+    fn node_scan<'a>(&'a self, node: usize, current: &'a Scan) -> Option<&'a Scan> {
+        self.scans
+            .get(node)
+            .or((node == self.scans.len()).then_some(current))
     }
 
     /// The pose in the map frame of `node`, as the graph holds it now.
@@ -452,9 +466,13 @@ impl GraphSlam {
             self.stats.loop_closure_searches += 1;
             self.stats.uncertain_closure_searches += 1;
             let submap = &self.finished[guess.submap].0;
-            let closure =
-                self.uncertain_closer
-                    .search_around_guess(submap, scan, guess.guess_in_submap);
+            let reference_scan = submap.reference_scan_from(|n| self.node_scan(n, scan));
+            let closure = self.uncertain_closer.search_around_guess(
+                submap,
+                &reference_scan,
+                scan,
+                guess.guess_in_submap,
+            );
             self.offer_closure(node, guess.submap, closure);
         }
     }
@@ -871,9 +889,10 @@ mod tests {
             usual.as_ref().is_none_or(|c| error_of(c).0 > 0.5),
             "{usual:?}"
         );
+        let reference_scan = submap.reference_scan_from(|n| slam.scans.get(n));
         let found = slam
             .uncertain_closer
-            .search_around_guess(submap, &scan, guess)
+            .search_around_guess(submap, &reference_scan, &scan, guess)
             .expect("found around the guess");
         let (error_m, error_rad) = error_of(&found);
         assert!(error_m < 0.05, "{found:?}");

@@ -408,9 +408,13 @@ impl LocalTracker {
                 guesses.push(last_pose * found.reference_from_new);
             }
         }
-        if let Some(submap) = self.active.first() {
+        if let Some((submap, reference_scan)) = self
+            .active
+            .first()
+            .and_then(|submap| Some((submap, submap.reference_scan()?)))
+        {
             let submap_in_local = submap.pose_in_local();
-            let submap_reference = self.full_turn_search.prepare(&submap.reference_scan());
+            let submap_reference = self.full_turn_search.prepare(&reference_scan);
             for guess in [motion, Pose2::IDENTITY] {
                 let guess_in_submap = submap_in_local.inverse() * last_pose * guess;
                 if let Ok(found) =

@@ -110,7 +110,8 @@ impl LoopCloser {
 
     /// [`Self::search`] over a window too wide for a raster centred on the submap's frame
     /// (the uncertain closer's, [`UncertainClosureOptions`](super::UncertainClosureOptions)):
-    /// the submap's scans are drawn on a raster centred on the guess, prepared for this search
+    /// the submap's scans in its frame (`reference_scan`, as [`SlamSubmap::reference_scan`]
+    /// gives them) are drawn on a raster centred on the guess, prepared for this search
     /// alone. The raster matcher does not count what falls off its raster, so a scan pushed
     /// to the edge of a wide window would shed its beams there for free; the beams that could
     /// leave the raster anywhere in the window are left out of the raster search (the
@@ -118,14 +119,14 @@ impl LoopCloser {
     pub fn search_around_guess(
         &self,
         submap: &SlamSubmap,
+        reference_scan: &Scan,
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
         let submap_from_centre = Pose2::new(guess_in_submap.x_m, guess_in_submap.y_m, 0.0);
         let centre_from_submap = submap_from_centre.inverse();
         let reference_in_centre = Scan::from_points_in_robot(
-            submap
-                .reference_scan()
+            reference_scan
                 .points_in_robot()
                 .iter()
                 .map(|p| p.map(|p| centre_from_submap.transform_point(p)))

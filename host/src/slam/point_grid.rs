@@ -44,6 +44,13 @@ pub struct PointGrid {
 }
 
 impl PointGrid {
+    /// Gives back the room kept for points that will not come: for a grid that is complete.
+    pub fn shrink_to_fit(&mut self) {
+        self.head.shrink_to_fit();
+        self.next.shrink_to_fit();
+        self.points.shrink_to_fit();
+    }
+
     /// An empty grid of square cells `cell_m` wide.
     ///
     /// # Panics

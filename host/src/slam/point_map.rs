@@ -66,6 +66,12 @@ pub struct PointMap {
 }
 
 impl PointMap {
+    /// Gives back the room kept for points that will not come: for a map that is complete.
+    pub fn shrink_to_fit(&mut self) {
+        self.index.shrink_to_fit();
+        self.points.shrink_to_fit();
+    }
+
     /// An empty map.
     pub fn new(options: PointMapOptions) -> Self {
         PointMap {

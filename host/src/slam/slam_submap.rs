@@ -69,8 +69,12 @@ pub struct SlamSubmap {
     pose_in_local: Pose2,
     /// End points with normals, in the submap frame.
     points: PointMap,
-    /// End points of every inserted scan in the submap frame, one polyline per scan.
-    points_in_submap: Vec<Option<[f64; 2]>>,
+    /// End points of every inserted scan in the submap frame, one polyline per scan; `None`
+    /// once forgotten ([`Self::forget_end_points`]).
+    points_in_submap: Option<Vec<Option<[f64; 2]>>>,
+    /// The node of every inserted scan, and where the scan lies in the submap
+    /// (`submap_from_robot`): enough to draw the end points again from the scans.
+    inserted: Vec<(usize, Pose2)>,
     first_node: usize,
     last_node: usize,
 }
@@ -87,7 +91,8 @@ impl SlamSubmap {
             submap: Submap::with_pose_in_map(pose_in_local, options),
             pose_in_local,
             points: PointMap::new(point_options),
-            points_in_submap: Vec::new(),
+            points_in_submap: Some(Vec::new()),
+            inserted: Vec::new(),
             first_node,
             last_node: first_node,
         }
@@ -108,12 +113,10 @@ impl SlamSubmap {
     pub(crate) fn insert_points(&mut self, node: usize, scan: &Scan, robot_pose_in_local: Pose2) {
         let submap_from_robot = self.pose_in_local.inverse() * robot_pose_in_local;
         self.points.insert_scan(scan, submap_from_robot);
-        self.points_in_submap.extend(
-            scan.points_in_robot()
-                .iter()
-                .map(|p| p.map(|p| submap_from_robot.transform_point(p))),
-        );
-        self.points_in_submap.push(None);
+        if let Some(points_in_submap) = &mut self.points_in_submap {
+            append_in_submap(points_in_submap, scan, submap_from_robot);
+        }
+        self.inserted.push((node, submap_from_robot));
         self.last_node = node;
     }
 
@@ -129,9 +132,14 @@ impl SlamSubmap {
         self.submap.reserve_for(scans);
     }
 
-    /// Stops insertion.
+    /// Stops insertion, and gives back the room kept for what will not be inserted.
     pub fn finish(&mut self) {
         self.submap.finish();
+        self.points.shrink_to_fit();
+        self.inserted.shrink_to_fit();
+        if let Some(points_in_submap) = &mut self.points_in_submap {
+            points_in_submap.shrink_to_fit();
+        }
     }
 
     /// The occupancy grid, in the submap frame.
@@ -278,9 +286,32 @@ impl SlamSubmap {
         self.points.any_within(point_in_submap, inlier_m)
     }
 
-    /// Every inserted scan in the submap frame, as one reference for the raster matcher.
-    pub fn reference_scan(&self) -> Scan {
-        Scan::from_points_in_robot(self.points_in_submap.clone())
+    /// Every inserted scan in the submap frame, as one reference for the raster matcher;
+    /// `None` once the end points were forgotten ([`Self::reference_scan_from`] draws them
+    /// again).
+    pub fn reference_scan(&self) -> Option<Scan> {
+        self.points_in_submap
+            .clone()
+            .map(Scan::from_points_in_robot)
+    }
+
+    /// [`Self::reference_scan`] drawn from the scans it was built from: `node_scan` gives the
+    /// scan of a node (the same one inserted). A scan it does not give is left out.
+    pub fn reference_scan_from<'a>(&self, node_scan: impl Fn(usize) -> Option<&'a Scan>) -> Scan {
+        let mut points_in_submap = Vec::new();
+        for &(node, submap_from_robot) in &self.inserted {
+            if let Some(scan) = node_scan(node) {
+                append_in_submap(&mut points_in_submap, scan, submap_from_robot);
+            }
+        }
+        Scan::from_points_in_robot(points_in_submap)
+    }
+
+    /// Frees the end points kept for [`Self::reference_scan`], which a finished submap whose
+    /// scans are kept elsewhere does not need: they are the scans again, once per submap
+    /// holding them.
+    pub fn forget_end_points(&mut self) {
+        self.points_in_submap = None;
     }
 
     /// `local_from_submap`.
@@ -307,6 +338,20 @@ impl SlamSubmap {
     pub fn is_finished(&self) -> bool {
         self.submap.is_finished()
     }
+}
+
+/// Appends `scan`'s end points in the submap frame, and a break after them.
+fn append_in_submap(
+    points_in_submap: &mut Vec<Option<[f64; 2]>>,
+    scan: &Scan,
+    submap_from_robot: Pose2,
+) {
+    points_in_submap.extend(
+        scan.points_in_robot()
+            .iter()
+            .map(|p| p.map(|p| submap_from_robot.transform_point(p))),
+    );
+    points_in_submap.push(None);
 }
 
 #[cfg(test)]
@@ -406,5 +451,33 @@ mod tests {
                 .inlier_fraction
                 > 0.9
         );
+    }
+
+    #[test]
+    fn a_finished_submap_draws_its_reference_again_from_the_scans() {
+        // A submap not at the origin, with scans at poses that differ, as along a trajectory.
+        let walls = polygon_walls(&[[-1.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-1.0, 1.0]]);
+        let options = crate::slam::SlamOptions::default();
+        let frame = Pose2::new(0.3, -0.2, 0.1);
+        let mut submap = SlamSubmap::new(frame, 4, options.submap, options.point_map);
+        let scans: Vec<(Scan, Pose2)> = (0..6)
+            .map(|k| {
+                let pose = Pose2::new(0.3 + 0.4 * k as f64, -0.2, 0.1 - 0.03 * k as f64);
+                (cast_front_scan(&walls, pose), pose)
+            })
+            .collect();
+        for (k, (scan, pose)) in scans.iter().enumerate() {
+            submap.insert(4 + k, scan, *pose);
+        }
+        submap.finish();
+        let kept = submap
+            .reference_scan()
+            .expect("end points kept until forgotten");
+        assert!(kept.points_in_robot().iter().flatten().count() > 100);
+        submap.forget_end_points();
+        assert_eq!(submap.reference_scan(), None);
+        let node_scan = |node: usize| node.checked_sub(4).and_then(|k| scans.get(k)).map(|s| &s.0);
+        // The same points, to the bit.
+        assert_eq!(submap.reference_scan_from(node_scan), kept);
     }
 }
