@@ -28,6 +28,17 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             .peak_resident_mib
             .map_or("not known".to_string(), |mib| format!("{mib:.0} MiB")),
     );
+    if let Some(parts) = &timing.slam_parts_s {
+        eprintln!(
+            "hil-sim: the SLAM's time by part: tracking {:.2} s, choosing loop closures {:.2} s, \
+             searching them {:.2} s, optimising {:.2} s, the end of the run {:.2} s",
+            parts.tracking_s,
+            parts.closure_candidates_s,
+            parts.closure_searches_s,
+            parts.optimization_s,
+            parts.finish_s,
+        );
+    }
     if summary.accounting_balanced {
         Ok(())
     } else {

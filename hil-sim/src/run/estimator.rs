@@ -12,7 +12,7 @@ use host::ekf_slam::EkfPipeline;
 use host::geometry::Pose2;
 use host::link::SensorEvent;
 use host::scan_match::ScanMatchError;
-use host::slam::GridPipeline;
+use host::slam::{GridPipeline, SlamTimings};
 use robot_host::config::SlamConfig;
 
 /// Which of the two methods estimates the pose. See the [module documentation](self).
@@ -51,6 +51,14 @@ impl Estimator {
         match self {
             Estimator::Grid(pipeline) => pipeline.on_event(event),
             Estimator::Ekf(pipeline) => pipeline.on_event(event),
+        }
+    }
+
+    /// Where the grid method's SLAM spent its time so far, part by part; `None` for the EKF.
+    pub fn slam_timings(&self) -> Option<SlamTimings> {
+        match self {
+            Estimator::Grid(pipeline) => Some(pipeline.timings()),
+            Estimator::Ekf(_) => None,
         }
     }
 

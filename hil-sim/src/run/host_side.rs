@@ -85,6 +85,11 @@ impl core::fmt::Debug for HostSide {
 }
 
 impl HostSide {
+    /// Where the grid method's SLAM spent its time so far ([`Estimator::slam_timings`]).
+    pub fn slam_timings(&self) -> Option<host::slam::SlamTimings> {
+        self.estimator.slam_timings()
+    }
+
     /// A host that has received nothing, estimating with `estimator`.
     pub fn new(estimator: Estimator) -> HostSide {
         HostSide {

@@ -2,6 +2,7 @@
 //! process's peak memory, on this machine. Kept apart from `summary.json`, which is byte-identical between runs of the same
 //! seed; these figures are not.
 
+use host::slam::SlamTimings;
 use serde::Serialize;
 
 /// How long the pipeline took per scan (the wall time of handing it one scan event, its
@@ -30,6 +31,10 @@ pub struct PipelineTiming {
     /// host pipeline and the firmware when it runs on the host (not under `--qemu` or on
     /// `--hardware`). `None` where the system does not give it (no `/proc`).
     pub peak_resident_mib: Option<f64>,
+    /// Where the grid method's SLAM spent its time, part by part, seconds in all (tracking,
+    /// choosing and searching loop closures, optimising, the end of the run); `None` for
+    /// the EKF method.
+    pub slam_parts_s: Option<SlamTimings>,
 }
 
 impl PipelineTiming {
@@ -59,6 +64,7 @@ impl PipelineTiming {
             first_1000_mean_ms: mean(&step_us[..window]),
             last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
             peak_resident_mib: None,
+            slam_parts_s: None,
         }
     }
 }

@@ -189,6 +189,7 @@ impl RunSummary {
             wall_s,
             pipeline: PipelineTiming {
                 peak_resident_mib: super::pipeline_timing::peak_resident_mib(),
+                slam_parts_s: host.slam_timings(),
                 ..PipelineTiming::from_step_times(&host.scan_step_us)
             },
         }

@@ -1,5 +1,7 @@
 //! The whole pipeline: local tracking, loop closure and the pose graph, one scan at a time.
 
+use std::time::Instant;
+
 use serde::Serialize;
 
 use super::chain_closer::{ChainCloser, ChainContext};
@@ -10,6 +12,7 @@ use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
+use super::slam_timings::{SlamTimings, seconds_since};
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{Edge, EdgeId, NodeId, PoseGraph, relative_covariances};
@@ -76,6 +79,8 @@ pub struct SlamResult {
     pub node_poses_in_map: Vec<Pose2>,
     /// The scans of the nodes (the beams the SLAM trusts), in order.
     pub node_scans: Vec<Scan>,
+    /// Where the time went (wall time on this machine).
+    pub timings: SlamTimings,
 }
 
 impl SlamResult {
@@ -142,6 +147,7 @@ pub struct GraphSlam {
     /// optimisation.
     unrobust_edges: Vec<EdgeId>,
     stats: SlamStats,
+    timings: SlamTimings,
 }
 
 impl GraphSlam {
@@ -171,6 +177,7 @@ impl GraphSlam {
             closure_edges: Vec::new(),
             unrobust_edges: Vec::new(),
             stats: SlamStats::default(),
+            timings: SlamTimings::default(),
             options,
         })
     }
@@ -178,6 +185,7 @@ impl GraphSlam {
     /// Adds `scan` (end points in the robot frame) taken at `time_s`, with the odometry pose
     /// at the scan when the log has one; returns the scan's current pose in the map.
     pub fn add_scan(&mut self, time_s: f64, scan: &Scan, odometry: Option<Pose2>) -> Pose2 {
+        let started = Instant::now();
         let scan = self.options.trusted_beams(scan);
         let tracked = self.tracker.track(time_s, &scan, odometry);
         self.stats.scans += 1;
@@ -188,6 +196,7 @@ impl GraphSlam {
         self.lost.push(tracked.lost);
         let pose_in_map = self.map_from_local * tracked.pose_in_local;
         let Some(node) = tracked.node else {
+            self.timings.tracking_s += seconds_since(started);
             // Not inserted (never the first scan): placed relative to the last node, and moved
             // with it.
             if let Some(&anchor_in_local) = self.poses_in_local.last() {
@@ -249,6 +258,9 @@ impl GraphSlam {
             self.last_search.push(0);
             self.last_uncertain_search.push(0);
         }
+        self.timings.tracking_s += seconds_since(started);
+        let started = Instant::now();
+        let before = self.timings;
         let every = self.options.loop_closure.every_n_scans.max(1);
         if self.options.loop_closure.enabled {
             let searched = node.is_multiple_of(every);
@@ -266,6 +278,10 @@ impl GraphSlam {
                 self.close_loops_beyond_window(node, &scan, beyond_window);
             }
         }
+        // Less what the parts timed apart took meanwhile.
+        let apart_s = (self.timings.closure_candidates_s - before.closure_candidates_s)
+            + (self.timings.optimization_s - before.optimization_s);
+        self.timings.closure_searches_s += (seconds_since(started) - apart_s).max(0.0);
         self.scans.push(scan);
         let chi2 = self.chi2_since_optimization;
         if chi2.is_nan() || chi2 > self.options.solve_above_chi2 {
@@ -277,6 +293,8 @@ impl GraphSlam {
     /// Ends the run: a last optimisation if loops were found since the previous one, the final
     /// refinement ([`super::final_refinement`], when enabled) and the poses of every scan.
     pub fn finish(mut self) -> SlamResult {
+        let started = Instant::now();
+        let optimization_s = self.timings.optimization_s;
         let active = self.tracker.finish();
         self.stats.submaps += active.len();
         if self.closures_since_optimization > 0 {
@@ -285,13 +303,22 @@ impl GraphSlam {
         if self.options.refinement.enabled {
             self.refine(&active);
         }
+        // The last optimisations belong to the end of the run.
+        self.timings.optimization_s = optimization_s;
+        self.timings.finish_s += seconds_since(started);
         SlamResult {
             poses_in_map: self.poses_in_map(),
             stats: self.stats(),
             node_poses_in_map: self.node_poses_in_map(),
             lost: self.lost,
             node_scans: self.scans,
+            timings: self.timings,
         }
+    }
+
+    /// Where the time went so far (wall time on this machine).
+    pub fn timings(&self) -> SlamTimings {
+        self.timings
     }
 
     /// What happened so far.
@@ -380,11 +407,13 @@ impl GraphSlam {
     ) -> (bool, Vec<SubmapGuess>) {
         let options = self.closer.options().clone();
         // Only the wide search reads how far the pose's uncertainty reaches.
+        let started = Instant::now();
         let covariances = if self.options.uncertain_closure.enabled {
             relative_covariances(&self.graph, NodeId(node))
         } else {
             Vec::new()
         };
+        self.timings.closure_candidates_s += seconds_since(started);
         let mut near: Vec<SubmapGuess> = Vec::new();
         let mut beyond_window: Vec<SubmapGuess> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
@@ -614,6 +643,13 @@ impl GraphSlam {
     }
 
     fn optimize(&mut self) {
+        let started = Instant::now();
+        self.optimize_untimed();
+        self.timings.optimization_s += seconds_since(started);
+    }
+
+    /// [`Self::optimize`] without its timing.
+    fn optimize_untimed(&mut self) {
         self.closures_since_optimization = 0;
         self.chi2_since_optimization = 0.0;
         self.stats.optimizations += 1;
@@ -802,6 +838,20 @@ mod tests {
             "{stats:?} against {solved_each:?}"
         );
         let result = slam.finish();
+        // Every part of the run was timed, each apart.
+        let parts = result.timings;
+        assert!(
+            [
+                parts.tracking_s,
+                parts.closure_candidates_s,
+                parts.closure_searches_s,
+                parts.optimization_s,
+                parts.finish_s
+            ]
+            .iter()
+            .all(|&s| s > 0.0),
+            "{parts:?}"
+        );
         let origin = truth[0].inverse();
         let worst_m = result
             .poses_in_map

@@ -9,7 +9,7 @@ use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::link::SensorEvent;
 use crate::scan_match::{Scan, ScanMatchError};
-use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats};
+use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats, SlamTimings};
 
 /// How the pipeline runs.
 #[derive(Debug, Clone)]
@@ -167,6 +167,15 @@ impl GridPipeline {
             (Some(result), _) => &result.lost,
             (None, Some(slam)) => slam.lost(),
             (None, None) => &[],
+        }
+    }
+
+    /// Where the SLAM's time went so far, part by part (wall time on this machine).
+    pub fn timings(&self) -> SlamTimings {
+        match (&self.result, &self.slam) {
+            (Some(result), _) => result.timings,
+            (None, Some(slam)) => slam.timings(),
+            (None, None) => SlamTimings::default(),
         }
     }
 

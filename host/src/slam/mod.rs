@@ -50,6 +50,7 @@ pub mod point_grid;
 pub mod point_map;
 mod recent_scans;
 mod slam_submap;
+mod slam_timings;
 mod window_matcher;
 
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
@@ -65,3 +66,4 @@ pub use options::{
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
 pub use slam_submap::{SlamSubmap, SubmapFit};
+pub use slam_timings::SlamTimings;

@@ -1,0 +1,41 @@
+//! Where a SLAM run's time went, part by part: wall time on the machine that ran it, to see
+//! which part grows with the map. Kept apart from [`super::SlamStats`], which is the same on
+//! every run of the same input.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+/// Wall time spent in each part of [`super::GraphSlam`], seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SlamTimings {
+    /// Local tracking: each scan placed against the active submaps and inserted, and the
+    /// matcher's reference of each submap that finished.
+    pub tracking_s: f64,
+    /// Choosing loop-closure candidates: the covariances of the pose relative to every node
+    /// (a search of the graph from the scan's node).
+    pub closure_candidates_s: f64,
+    /// Loop-closure searches: in finished submaps, in chains of earlier scans and around a
+    /// guess for an uncertain pose, with their acceptance and confirmation.
+    pub closure_searches_s: f64,
+    /// Optimisations of the whole graph during the run.
+    pub optimization_s: f64,
+    /// The end of the run: the last optimisation and the final refinement.
+    pub finish_s: f64,
+}
+
+impl SlamTimings {
+    /// All parts together, seconds.
+    pub fn total_s(&self) -> f64 {
+        self.tracking_s
+            + self.closure_candidates_s
+            + self.closure_searches_s
+            + self.optimization_s
+            + self.finish_s
+    }
+}
+
+/// Seconds since `start`.
+pub(super) fn seconds_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64()
+}
