@@ -13,6 +13,10 @@
 //!
 //! No wide search runs here: the graph already holds the loops that loop closure found, and a
 //! scan the graph places more than [`RefinementOptions::max_correction_m`] off is left to it.
+//!
+//! A place mapped on every lap of a long run lies in a submap per lap: each scan is aligned
+//! on at most [`RefinementOptions::max_submaps_per_scan`] of them, the nearest, so that the
+//! end of a run costs in proportion to its scans rather than to its scans times its laps.
 
 use super::closure_confirmation::FoundClosure;
 use super::icp::align;
@@ -35,17 +39,20 @@ pub(crate) fn refinement_closures(
     let mut closures = Vec::new();
     for (node, (scan, &pose_in_map)) in scans.iter().zip(poses_in_map).enumerate() {
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
-        for submap in submaps {
-            if (submap.first_node()..=submap.last_node()).contains(&node) {
-                continue;
-            }
-            let Some(&submap_in_map) = poses_in_map.get(submap.first_node()) else {
-                continue;
-            };
-            let guess = submap_in_map.inverse() * pose_in_map;
-            if guess.x_m.hypot(guess.y_m) > refinement.max_distance_m {
-                continue;
-            }
+        // The nearest submaps it did not go into, each with the scan's pose in it.
+        let mut near: Vec<(f64, &SlamSubmap, Pose2)> = submaps
+            .iter()
+            .filter(|submap| !(submap.first_node()..=submap.last_node()).contains(&node))
+            .filter_map(|&submap| {
+                let submap_in_map = poses_in_map.get(submap.first_node())?;
+                let guess = submap_in_map.inverse() * pose_in_map;
+                let distance_m = guess.x_m.hypot(guess.y_m);
+                (distance_m <= refinement.max_distance_m).then_some((distance_m, submap, guess))
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        near.truncate(refinement.max_submaps_per_scan);
+        for (_, submap, guess) in near {
             if !may_fit(submap, &points, guess, options) {
                 continue;
             }
@@ -165,5 +172,44 @@ mod tests {
         // The alignment itself finds the pose: only the limit turns it down.
         options.refinement.max_correction_rad = 10f64.to_radians();
         assert_eq!(closures_for(&options, true_pose, held_pose).len(), 1);
+    }
+
+    #[test]
+    fn a_place_mapped_on_many_laps_ties_each_scan_to_the_nearest_few_submaps() {
+        // Two laps more than the budget through the room, each mapped into a submap of its
+        // own (frames a little apart), then a last scan in the middle of the room.
+        let options = SlamOptions::default();
+        let budget = options.refinement.max_submaps_per_scan;
+        let laps = budget + 2;
+        let mut submaps = Vec::new();
+        let mut poses_in_map = Vec::new();
+        let mut scans = Vec::new();
+        for lap in 0..laps {
+            let frame = Pose2::new(0.1 * lap as f64, 0.0, 0.0);
+            let mut submap = SlamSubmap::new(frame, 2 * lap, options.submap, options.point_map);
+            for step in 0..2 {
+                let pose = frame * Pose2::new(0.2 * f64::from(step), 0.0, 0.0);
+                let scan = room_scan(pose);
+                submap.insert(2 * lap + step as usize, &scan, pose);
+                poses_in_map.push(pose);
+                scans.push(scan);
+            }
+            submap.finish();
+            submaps.push(submap);
+        }
+        let last = Pose2::new(1.0, -0.2, 0.1);
+        poses_in_map.push(last);
+        scans.push(room_scan(last));
+        let submaps: Vec<&SlamSubmap> = submaps.iter().collect();
+        let closures = refinement_closures(&poses_in_map, &submaps, &scans, &options);
+        let mut of_last: Vec<usize> = closures
+            .iter()
+            .filter(|c| c.node == 2 * laps)
+            .map(|c| c.submap_first_node / 2)
+            .collect();
+        of_last.sort_unstable();
+        // The laps whose frames lie nearest the scan (the last ones), and no more.
+        let nearest: Vec<usize> = (laps - budget..laps).collect();
+        assert_eq!(of_last, nearest);
     }
 }

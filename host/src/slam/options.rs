@@ -383,6 +383,10 @@ pub struct RefinementOptions {
     pub max_correction_m: f64,
     /// Likewise for its heading, radians.
     pub max_correction_rad: f64,
+    /// Submaps each scan is aligned on at most, the nearest (their frames to the scan):
+    /// a place seen on many laps has a submap per lap, and a few of them tie the scan to the
+    /// map as well as all of them.
+    pub max_submaps_per_scan: usize,
 }
 
 impl Default for RefinementOptions {
@@ -392,6 +396,7 @@ impl Default for RefinementOptions {
             max_distance_m: 10.0,
             max_correction_m: 0.5,
             max_correction_rad: 3f64.to_radians(),
+            max_submaps_per_scan: 10,
         }
     }
 }
