@@ -25,9 +25,10 @@
 //! receiver interpolates it, possibly too early.) Starts are placed on a grid of period `P`
 //! at the nearest grid point: a start read up to `P/2` late lands in its own slot (107 ms at
 //! 38 400 Bd, 13 ms at 500 kBd), one read later in a later slot. The grid is anchored at the
-//! first accepted telegram's start and moves along with each start read within `(P − A)/4`
-//! of it, following the sensor's clock, which drifts from the board's; its slots keep their
-//! numbers.
+//! first accepted telegram's start and moves along with each start read at most `(P − A)/4`
+//! after its grid point, following the sensor's clock, which drifts from the board's; a start
+//! before its grid point shows the grid was anchored late, and moves it back. Its slots keep
+//! their numbers.
 //!
 //! The scans missed among accepted telegrams are the slots they span less their number. As a
 //! start is never read early, each one's slot is its true slot or a later one; so the
@@ -73,8 +74,9 @@ const BITS_PER_BYTE: u64 = 10;
 pub struct ScanSlots {
     /// The current session's timing, `None` when not streaming.
     timing: Option<Timing>,
-    /// A time on the grid, ns: an accepted telegram's start read on time, or the first byte
-    /// heard. `None` before the first byte of a session or after a break.
+    /// A time on the grid, ns: the first byte heard, then the first accepted telegram's
+    /// start, then each start read on time or before the grid point. `None` before the first
+    /// byte of a session or after a break.
     anchor_ns: Option<u64>,
     /// The slot `anchor_ns` lies in; the grid's first byte lies in slot 0.
     anchor_slot: i64,
@@ -121,7 +123,9 @@ impl Timing {
     /// Whole periods from `anchor_ns` to `t_ns` after shifting `t_ns` by `shift_ns`, rounded
     /// down; negative before the anchor.
     fn periods(&self, anchor_ns: u64, t_ns: u64, shift_ns: u64) -> i64 {
-        let offset = signed(t_ns) - signed(anchor_ns) + signed(shift_ns);
+        let offset = signed(t_ns)
+            .saturating_sub(signed(anchor_ns))
+            .saturating_add(signed(shift_ns));
         offset.div_euclid(signed(self.period_ns).max(1))
     }
 
@@ -235,10 +239,13 @@ impl ScanSlots {
         self.accepted += 1;
         self.last_slot = self.last_slot.max(slot);
         // The grid's first telegram anchors it (a start is read better than a first byte),
-        // and a start read on time moves it along, following the sensor's clock.
+        // and a start read on time moves it along, following the sensor's clock. A start
+        // before its grid point shows the grid was anchored late (starts are never read
+        // early): it moves the grid back.
         let on_grid_ns =
             signed(anchor_ns).saturating_add(nearest.saturating_mul(signed(timing.period_ns)));
-        let on_time = signed(start_ns).abs_diff(on_grid_ns) <= timing.lead_ns() / 2;
+        let late_ns = signed(start_ns).saturating_sub(on_grid_ns);
+        let on_time = late_ns <= signed(timing.lead_ns() / 2);
         if self.accepted == 1 || on_time {
             self.anchor_ns = Some(start_ns);
             self.anchor_slot = slot;
@@ -582,6 +589,7 @@ mod tests {
         slots.on_scan(last_us);
         assert_eq!(slots.missed(), 1);
     }
+
     #[test]
     fn a_run_of_telegrams_read_late_is_counted_by_the_next_on_time() {
         // 500 kBd; the reader falls 20 ms behind (more than half a period) for a run of
@@ -621,6 +629,33 @@ mod tests {
         assert_eq!(slots.missed(), 0);
         // One lost whole after them still counts.
         telegram(&mut slots, 5_000 + 6 * PERIOD_US);
+        assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn a_first_telegram_read_late_does_not_hold_the_grid_late() {
+        // 500 kBd; the first telegram is read in one burst 10 ms after its end, which anchors
+        // the grid 10 ms late; the next ones are read on time and move it back. Then one is
+        // cut off after 4 ms: its bytes must fall into its own slot.
+        let mut slots = streaming();
+        let last_us = read_in_one_burst(&mut slots, AIRTIME_US + 10_000, 732, CHAR_US);
+        slots.on_scan(last_us);
+        for k in 1..=4 {
+            telegram(&mut slots, k * PERIOD_US);
+        }
+        for i in 0..200 {
+            slots.on_byte(5 * PERIOD_US + i * CHAR_US);
+        }
+        assert_eq!(slots.missed(), 1);
+        // And the grid follows a sensor whose clock runs 110 ppm fast: one telegram lost
+        // whole among 3 000 is counted, once.
+        let mut slots = streaming();
+        let fast_period_us = PERIOD_US - 3;
+        let last_us = read_in_one_burst(&mut slots, AIRTIME_US + 10_000, 732, CHAR_US);
+        slots.on_scan(last_us);
+        for k in (1..3_000).filter(|&k| k != 1_500) {
+            telegram(&mut slots, k * fast_period_us);
+        }
         assert_eq!(slots.missed(), 1);
     }
 }
