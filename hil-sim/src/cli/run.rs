@@ -15,9 +15,8 @@ use super::report::report;
 /// theta_rad`), OUT/ground_truth.tsv (the truth at the same timestamps, same frame),
 /// OUT/summary.json (every telegram accounted for, faults injected beside what was
 /// counted), OUT/performance.json (the pipeline's time per scan: mean, percentiles, the first
-/// and the last 1 000 scans; the peak memory; the grid method's time by part), OUT/landmarks.tsv
-/// and OUT/world.tsv. Prints the summary on
-/// stdout.
+/// and the last 1 000 scans; the peak memory; the grid method's time by part),
+/// OUT/landmarks.tsv and OUT/world.tsv. Prints the summary on stdout.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     /// The kind of world: `indoor` (rooms and corridors) or `outdoor` (a park with trees

@@ -1,6 +1,7 @@
-//! `performance.json` of a run: how long the host's pipeline took over each scan, and the
-//! process's peak memory, on this machine. Kept apart from `summary.json`, which is byte-identical between runs of the same
-//! seed; these figures are not.
+//! `performance.json` of a run: how long the host's pipeline took over each scan, the
+//! process's peak memory and where the grid method's time went, on this machine. Kept apart
+//! from `summary.json`, which is byte-identical between runs of the same seed; these figures
+//! are not.
 
 use host::slam::SlamTimings;
 use serde::Serialize;

@@ -2,20 +2,21 @@
 //!
 //! During the run, loop closure searches only every few scans, and a scan is tied to the
 //! submaps it went into only through the chain of consecutive-scan constraints. Once the run
-//! is over and the graph optimised, every scan is aligned by point-to-line ICP on each
-//! finished submap it did not go into whose frame lies within
-//! [`RefinementOptions::max_distance_m`], starting from their relative pose in the graph. An
+//! is over and the graph optimised, every scan is aligned by point-to-line ICP on the
+//! finished submaps it did not go into whose frames lie within
+//! [`RefinementOptions::max_distance_m`] (the nearest few, see below), starting from their
+//! relative pose in the graph. An
 //! alignment that moves the scan by at most [`RefinementOptions::max_correction_m`] and
 //! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
 //! becomes a constraint like a loop closure's, and the graph is optimised once more. Every
-//! place seen again is then tied to every submap that saw it, not only to the ones loop
+//! place seen again is then tied to the submaps that saw it, not only to the ones loop
 //! closure happened to search from it.
 //!
 //! No wide search runs here: the graph already holds the loops that loop closure found, and a
 //! scan the graph places more than [`RefinementOptions::max_correction_m`] off is left to it.
 //!
-//! A place mapped on every lap of a long run lies in a submap per lap: each scan is aligned
-//! on at most [`RefinementOptions::max_submaps_per_scan`] of them, the nearest, so that the
+//! A place mapped on every lap of a long run lies in a submap per lap: each scan is tried on
+//! at most [`RefinementOptions::max_submaps_per_scan`] of them, the nearest, so that the
 //! end of a run costs in proportion to its scans rather than to its scans times its laps.
 
 use super::closure_confirmation::FoundClosure;

@@ -383,7 +383,7 @@ pub struct RefinementOptions {
     pub max_correction_m: f64,
     /// Likewise for its heading, radians.
     pub max_correction_rad: f64,
-    /// Submaps each scan is aligned on at most, the nearest (their frames to the scan):
+    /// Submaps each scan is tried on at most, the nearest (their frames to the scan):
     /// a place seen on many laps has a submap per lap, and a few of them tie the scan to the
     /// map as well as all of them.
     pub max_submaps_per_scan: usize,

@@ -13,7 +13,9 @@ pub struct SlamTimings {
     /// matcher's reference of each submap that finished.
     pub tracking_s: f64,
     /// Choosing loop-closure candidates: the covariances of the pose relative to every node
-    /// (a search of the graph from the scan's node).
+    /// (a search of the graph from the scan's node). The same search for a closure the
+    /// robust kernel would weaken, whether it lies within the uncertainty, counts with the
+    /// searches.
     pub closure_candidates_s: f64,
     /// Loop-closure searches: in finished submaps, in chains of earlier scans and around a
     /// guess for an uncertain pose, with their acceptance and confirmation.
