@@ -6,8 +6,9 @@
 //! What is compared. Each run must decode exactly what was sent — every scan the host got is,
 //! value for value, a scan the laser sent; no frame is damaged or lost on the link; every GPS
 //! epoch reaches the host — and account for every scan: delivered intact or counted as lost
-//! by the firmware or the host. And the two runs must be the same: the same scans emitted,
-//! delivered and counted lost, the same scans decoded value for value (`scans.tsv`), the same
+//! by the firmware or the host (the QEMU run within a slack, see below). And the two runs
+//! must be the same: the same scans emitted and delivered, the same counted lost (within the
+//! slack), the same scans decoded value for value (`scans.tsv`), the same
 //! GPS fixes (`fixes.jsonl`), the same estimated and true poses (the timestamps, the board's
 //! clock as the host maps it, differ by the emulated board's latency).
 //!
@@ -23,6 +24,15 @@
 //! no scan arrives in the stream watchdog's second period, so the firmware restarts the
 //! bring-up at once); the emulated board's lateness adds up over both bring-ups. The test
 //! checks that both runs met the same first scans.
+//!
+//! The wall clock's share. The emulated board stamps the bytes it reads on QEMU's clock, which
+//! follows the host's; on a busy host QEMU hands some bytes to the firmware tens of
+//! milliseconds later than others. The firmware's count of missed scans goes by those stamps
+//! (`firmware::sick::slots`, its limits): on a shared 2-core machine about one QEMU run in
+//! four counts one or two scans more or fewer than were lost. So the QEMU run's count may
+//! differ from the truth by [`WALL_CLOCK_COUNT_SLACK`]; the host-executor run, on the virtual
+//! clock, must count exactly, and so must every lock-step run (`tests/run_chain.rs`). What
+//! the board decodes, delivers and measures is compared exactly either way.
 //!
 //! Without `qemu-system-arm` or the image the test prints SKIPPED, and fails when `CI` is set.
 
@@ -40,6 +50,9 @@ const RESTART_S: f64 = 4.755;
 /// The least time the host-executor run's bring-ups may end before their first scan, µs: the
 /// emulated board's bring-ups end some tens of milliseconds later.
 const MIN_SLACK_US: u64 = 100_000;
+/// Scans the QEMU run's firmware may count missed beyond or short of those lost (see the
+/// module documentation).
+const WALL_CLOCK_COUNT_SLACK: u64 = 2;
 
 fn image() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -99,8 +112,9 @@ fn timed_lines(out: &Path, file: &str) -> (Vec<f64>, Vec<String>) {
         .unzip()
 }
 
-/// What each run must show by itself.
-fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path) {
+/// What each run must show by itself; its count of scans lost within `count_slack` of those
+/// lost.
+fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path, count_slack: u64) {
     assert_eq!(s.panics, 0, "{name}: {s:#?}");
     assert!(s.counted.final_status_received, "{name}: {s:#?}");
     assert_eq!(s.counted.final_laser_state, "Streaming", "{name}: {s:#?}");
@@ -116,7 +130,11 @@ fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path) {
         s.injected.scan_telegrams_cut_by_restart, 1,
         "{name}: {s:#?}"
     );
-    assert!(s.accounting_balanced, "{name}: {s:#?}");
+    let accounted = s.telegrams_delivered_intact + s.telegrams_counted_rejected;
+    assert!(
+        accounted.abs_diff(s.telegrams_emitted) <= count_slack,
+        "{name}: {s:#?}"
+    );
     // Two streams (power-on and restart), each with scans delivered.
     assert_eq!(s.laser_streams.len(), 2, "{name}: {s:#?}");
     let (times, _) = timed_lines(out, "trajectory.tsv");
@@ -137,18 +155,22 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
         (
             s.telegrams_emitted,
             s.telegrams_delivered_intact,
-            s.telegrams_counted_rejected,
             s.gps_fixes_emitted,
             s.gps_fixes_delivered,
             s.frames_lost_on_link,
-            s.accounting_balanced,
             (
-                s.counted.firmware_scans_missed,
                 s.counted.host_scan_counter_gaps,
                 s.injected.scan_telegrams_cut_by_restart,
             ),
         )
     };
+    let missed = |s: &RunSummary| u64::from(s.counted.firmware_scans_missed);
+    println!(
+        "firmware's count of scans missed: host executor {}, QEMU {}",
+        missed(host),
+        missed(emulated)
+    );
+    assert!(missed(host).abs_diff(missed(emulated)) <= WALL_CLOCK_COUNT_SLACK);
     assert_eq!(
         accounting(host),
         accounting(emulated),
@@ -232,8 +254,13 @@ fn the_thumbv7em_image_in_qemu_decodes_and_accounts_exactly_as_the_host_executor
     println!("QEMU: {emulated:#?}");
     println!("measured: {report:#?}");
 
-    assert_decoded_and_accounted("host executor", &host, &host_options.out);
-    assert_decoded_and_accounted("QEMU", &emulated, &emulated_options.out);
+    assert_decoded_and_accounted("host executor", &host, &host_options.out, 0);
+    assert_decoded_and_accounted(
+        "QEMU",
+        &emulated,
+        &emulated_options.out,
+        WALL_CLOCK_COUNT_SLACK,
+    );
     assert_measured(&report, &emulated);
     assert!(emulated_options.out.join("qemu.json").is_file());
     assert_same(&host, &host_options.out, &emulated, &emulated_options.out);
