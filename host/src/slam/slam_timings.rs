@@ -26,17 +26,6 @@ pub struct SlamTimings {
     pub finish_s: f64,
 }
 
-impl SlamTimings {
-    /// All parts together, seconds.
-    pub fn total_s(&self) -> f64 {
-        self.tracking_s
-            + self.closure_candidates_s
-            + self.closure_searches_s
-            + self.optimization_s
-            + self.finish_s
-    }
-}
-
 /// Seconds since `start`.
 pub(super) fn seconds_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64()
