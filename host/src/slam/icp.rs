@@ -147,7 +147,8 @@ pub fn align_near(
         .fold(0.0, f64::max)
         + SEARCH_MARGIN_M;
     let mut correspondences = vec![Correspondence::default(); points_in_robot.len()];
-    for &stage_m in &options.stages_m {
+    let mut stepped = false;
+    'stages: for &stage_m in &options.stages_m {
         for _ in 0..options.iterations_per_stage {
             let step = gauss_newton_step(
                 map,
@@ -160,7 +161,16 @@ pub fn align_near(
                 },
                 options,
                 prior,
-            )?;
+            );
+            // A finer stage with too few pairs (sparse or noisy surfaces, far apart) ends the
+            // refinement where the coarser ones left the pose; with none at all, no alignment.
+            let Some(step) = step else {
+                if stepped {
+                    break 'stages;
+                }
+                return None;
+            };
+            stepped = true;
             pose = Pose2::new(
                 pose.x_m + step[0],
                 pose.y_m + step[1],
@@ -408,6 +418,38 @@ mod tests {
                 proptest::prop_assert_eq!(remembered.map(|q| q.point), searched);
             }
         }
+    }
+
+    #[test]
+    fn a_finer_stage_without_pairs_keeps_what_the_coarser_ones_found() {
+        // Far, rough surfaces: every end point is 5 cm off its wall, alternately short and
+        // long, so a stage pairing within 1 mm finds almost no pairs.
+        let walls = polygon_walls(&[[-4.0, -3.0], [5.0, -3.0], [5.0, 2.0], [-4.0, 4.0]]);
+        let truth = Pose2::new(0.3, -0.2, 0.1);
+        let reference = cast_front_scan(&walls, Pose2::IDENTITY);
+        let mut map = PointMap::new(PointMapOptions::default());
+        map.insert_scan(&reference, Pose2::IDENTITY);
+        let points: Vec<[f64; 2]> = cast_front_scan(&walls, truth)
+            .points_in_robot()
+            .iter()
+            .flatten()
+            .enumerate()
+            .map(|(k, &[x, y])| {
+                let scale = 1.0 + if k % 2 == 0 { 0.05 } else { -0.05 } / x.hypot(y);
+                [x * scale, y * scale]
+            })
+            .collect();
+        let options = IcpOptions {
+            stages_m: vec![0.6, 0.3, 0.001],
+            ..IcpOptions::default()
+        };
+        let found = align(&map, &points, Pose2::IDENTITY, &options);
+        let Some(found) = found else {
+            panic!("the coarse stages' alignment was dropped");
+        };
+        let error = truth.inverse() * found.map_from_robot;
+        assert!(error.x_m.hypot(error.y_m) < 0.03, "{error:?}");
+        assert!(error.theta_rad.abs() < 0.5f64.to_radians(), "{error:?}");
     }
 
     #[test]
