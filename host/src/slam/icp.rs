@@ -6,7 +6,10 @@
 //! points' normals (Huber-weighted, slightly damped so that a corridor, which fixes the pose
 //! only across it, does not make the step singular). The stages shrink the correspondence
 //! distance, so a guess some decimetres off is pulled in first and the last stage uses only
-//! close pairs. The result carries the fraction of end points that then lie within
+//! close pairs. A finer stage that cannot start (fewer than [`IcpOptions::min_pairs`] pairs:
+//! far, sparse or rough surfaces, whose end points lie decimetres apart) ends the alignment
+//! where the coarser stages left it, and its information then counts the pairs of the last
+//! stage that ran. The result carries the fraction of end points that then lie within
 //! [`IcpOptions::inlier_m`] of the map: how well the scan fits.
 //!
 //! Between iterations an end point moves by a fraction of a millimetre, so each one remembers
@@ -35,7 +38,8 @@ pub struct IcpOptions {
     pub huber_m: f64,
     /// An end point this close to a map point counts as fitting, metres.
     pub inlier_m: f64,
-    /// Fewer pairs than this make no alignment.
+    /// Fewer pairs than this make no step: no alignment in the first stage, or in a stage
+    /// already under way, and the end of the alignment when a finer stage cannot start.
     pub min_pairs: usize,
 }
 
@@ -93,7 +97,8 @@ pub struct IcpMatch {
     pub inlier_fraction: f64,
     /// RMS point-to-line distance of those end points, metres.
     pub rms_m: f64,
-    /// `Σ w J Jᵀ` over those end points at the final pose (Huber weights `w`, `J` the
+    /// `Σ w J Jᵀ` over those end points at the final pose (over those paired within the last
+    /// stage that ran when a finer one could not start; Huber weights `w`, `J` the
     /// derivative of the point-to-line distance with respect to `(x_m, y_m, theta_rad)` of
     /// `map_from_robot`, the translation taken in the map frame): the information the
     /// alignment holds about the pose per unit variance of the distances. Along a corridor it
@@ -115,7 +120,7 @@ impl IcpMatch {
 }
 
 /// Aligns `points_in_robot` on `map`, starting from `guess` (`map_from_robot`). `None` when
-/// too few points find a partner.
+/// too few points find a partner in the first stage, or a stage under way loses them.
 pub fn align(
     map: &PointMap,
     points_in_robot: &[[f64; 2]],
@@ -147,9 +152,12 @@ pub fn align_near(
         .fold(0.0, f64::max)
         + SEARCH_MARGIN_M;
     let mut correspondences = vec![Correspondence::default(); points_in_robot.len()];
-    let mut stepped = false;
+    // The correspondence distance of the last stage run to its end, and whether a finer one
+    // could not start.
+    let mut completed_m: Option<f64> = None;
+    let mut ended_early = false;
     'stages: for &stage_m in &options.stages_m {
-        for _ in 0..options.iterations_per_stage {
+        for iteration in 0..options.iterations_per_stage {
             let step = gauss_newton_step(
                 map,
                 points_in_robot,
@@ -162,15 +170,13 @@ pub fn align_near(
                 options,
                 prior,
             );
-            // A finer stage with too few pairs (sparse or noisy surfaces, far apart) ends the
-            // refinement where the coarser ones left the pose; with none at all, no alignment.
             let Some(step) = step else {
-                if stepped {
+                if iteration == 0 && completed_m.is_some() {
+                    ended_early = true;
                     break 'stages;
                 }
                 return None;
             };
-            stepped = true;
             pose = Pose2::new(
                 pose.x_m + step[0],
                 pose.y_m + step[1],
@@ -180,22 +186,37 @@ pub fn align_near(
                 break;
             }
         }
+        completed_m = Some(stage_m);
     }
-    let (mut inliers, mut sum_sq) = (0usize, 0.0);
+    // What the alignment knows comes from the pairs it ended on: within the inlier distance,
+    // or within the last stage that ran when a finer one could not start.
+    let information_m = match completed_m {
+        Some(stage_m) if ended_early => stage_m.max(options.inlier_m),
+        _ => options.inlier_m,
+    };
+    let inlier_sq = options.inlier_m * options.inlier_m;
+    let (mut inliers, mut pairs, mut sum_sq) = (0usize, 0usize, 0.0);
     let mut information = Matrix3::zeros();
     let (sin, cos) = pose.theta_rad.sin_cos();
     for (&p, correspondence) in points_in_robot.iter().zip(&mut correspondences) {
         let moved = pose.transform_point(p);
-        if let Some(q) = correspondence.nearest_within(map, moved, options.inlier_m, search_m) {
+        if let Some(q) = correspondence.nearest_within(map, moved, information_m, search_m) {
             let [qx, qy] = q.point;
             let [nx, ny] = q.normal;
             let residual = nx * (moved[0] - qx) + ny * (moved[1] - qy);
-            inliers += 1;
-            sum_sq += residual * residual;
+            pairs += 1;
             let jacobian = distance_jacobian(q.normal, p, sin, cos);
             information +=
                 huber_weight(residual, options.huber_m) * jacobian * jacobian.transpose();
+            let (dx, dy) = (qx - moved[0], qy - moved[1]);
+            if !ended_early || dx * dx + dy * dy <= inlier_sq {
+                inliers += 1;
+                sum_sq += residual * residual;
+            }
         }
+    }
+    if pairs < options.min_pairs && ended_early {
+        return None;
     }
     Some(IcpMatch {
         map_from_robot: pose,
@@ -422,8 +443,8 @@ mod tests {
 
     #[test]
     fn a_finer_stage_without_pairs_keeps_what_the_coarser_ones_found() {
-        // Far, rough surfaces: every end point is 5 cm off its wall, alternately short and
-        // long, so a stage pairing within 1 mm finds almost no pairs.
+        // Rough surfaces: every end point lies 5 cm along its beam off the wall, alternately
+        // short and long, so a stage pairing within 1 mm cannot start.
         let walls = polygon_walls(&[[-4.0, -3.0], [5.0, -3.0], [5.0, 2.0], [-4.0, 4.0]]);
         let truth = Pose2::new(0.3, -0.2, 0.1);
         let reference = cast_front_scan(&walls, Pose2::IDENTITY);
@@ -450,6 +471,14 @@ mod tests {
         let error = truth.inverse() * found.map_from_robot;
         assert!(error.x_m.hypot(error.y_m) < 0.03, "{error:?}");
         assert!(error.theta_rad.abs() < 0.5f64.to_radians(), "{error:?}");
+        // Its information is that of the pairs of the 0.3 m stage, where it ended.
+        assert!(found.information[(2, 2)] > 0.0, "{found:?}");
+        // A first stage that cannot start makes no alignment.
+        let only_fine = IcpOptions {
+            stages_m: vec![0.001],
+            ..IcpOptions::default()
+        };
+        assert!(align(&map, &points, Pose2::IDENTITY, &only_fine).is_none());
     }
 
     #[test]
