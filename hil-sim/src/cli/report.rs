@@ -39,6 +39,19 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             parts.finish_s,
         );
     }
+    if let Some(work) = &timing.slam_work {
+        eprintln!(
+            "hil-sim: the SLAM's work: {} nodes of {} scans, {} submaps, {} loop-closure \
+             searches ({} over an uncertain pose's wide window), {} closures, {} optimisations",
+            work.nodes,
+            work.scans,
+            work.submaps,
+            work.loop_closure_searches,
+            work.uncertain_closure_searches,
+            work.loop_closures,
+            work.optimizations,
+        );
+    }
     if summary.accounting_balanced {
         Ok(())
     } else {

@@ -12,7 +12,7 @@ use host::ekf_slam::EkfPipeline;
 use host::geometry::Pose2;
 use host::link::SensorEvent;
 use host::scan_match::ScanMatchError;
-use host::slam::{GridPipeline, SlamTimings};
+use host::slam::{GridPipeline, SlamStats, SlamTimings};
 use robot_host::config::SlamConfig;
 
 /// Which of the two methods estimates the pose. See the [module documentation](self).
@@ -58,6 +58,15 @@ impl Estimator {
     pub fn slam_timings(&self) -> Option<SlamTimings> {
         match self {
             Estimator::Grid(pipeline) => Some(pipeline.timings()),
+            Estimator::Ekf(_) => None,
+        }
+    }
+
+    /// What the grid method's SLAM did so far (nodes, searches, closures, solves); `None` for
+    /// the EKF.
+    pub fn slam_stats(&self) -> Option<SlamStats> {
+        match self {
+            Estimator::Grid(pipeline) => Some(pipeline.stats()),
             Estimator::Ekf(_) => None,
         }
     }

@@ -90,6 +90,11 @@ impl HostSide {
         self.estimator.slam_timings()
     }
 
+    /// What the grid method's SLAM did so far ([`Estimator::slam_stats`]).
+    pub fn slam_stats(&self) -> Option<host::slam::SlamStats> {
+        self.estimator.slam_stats()
+    }
+
     /// A host that has received nothing, estimating with `estimator`.
     pub fn new(estimator: Estimator) -> HostSide {
         HostSide {

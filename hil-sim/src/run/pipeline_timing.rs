@@ -3,7 +3,7 @@
 //! from `summary.json`, which is byte-identical between runs of the same seed; these figures
 //! are not.
 
-use host::slam::SlamTimings;
+use host::slam::{SlamStats, SlamTimings};
 use serde::Serialize;
 
 /// How long the pipeline took per scan (the wall time of handing it one scan event, its
@@ -36,6 +36,10 @@ pub struct PipelineTiming {
     /// choosing and searching loop closures, optimising, the end of the run); `None` for
     /// the EKF method.
     pub slam_parts_s: Option<SlamTimings>,
+    /// What that time was spent on: the grid method's nodes, searches, closures and solves
+    /// over the run; `None` for the EKF method. Kept here rather than in `summary.json`, as
+    /// under `--qemu` or on `--hardware` the scans the host receives depend on timing.
+    pub slam_work: Option<SlamStats>,
 }
 
 impl PipelineTiming {
@@ -66,6 +70,7 @@ impl PipelineTiming {
             last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
             peak_resident_mib: None,
             slam_parts_s: None,
+            slam_work: None,
         }
     }
 }

@@ -190,6 +190,7 @@ impl RunSummary {
             pipeline: PipelineTiming {
                 peak_resident_mib: super::pipeline_timing::peak_resident_mib(),
                 slam_parts_s: host.slam_timings(),
+                slam_work: host.slam_stats(),
                 ..PipelineTiming::from_step_times(&host.scan_step_us)
             },
         }
