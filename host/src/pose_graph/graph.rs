@@ -518,8 +518,11 @@ mod tests {
         let report = graph.optimize(&OptimizeOptions::default()).unwrap();
         assert_eq!(report.iterations, 0);
         assert!(report.converged);
-        assert_eq!(report.initial_cost, report.final_cost);
-        assert!(report.final_cost > 0.0);
+        // The report counts what the free nodes can change: nothing here, while the graph's
+        // own cost holds the fixed edge's error.
+        assert_eq!(report.initial_cost, 0.0);
+        assert_eq!(report.final_cost, 0.0);
+        assert!(graph.cost() > 0.0);
     }
 
     #[test]

@@ -200,15 +200,19 @@ impl NormalEquations {
         self.gradient.len()
     }
 
-    /// Linearises every edge at the poses of `nodes`, fills `H` and `b` with the robustly
-    /// reweighted contributions `w Jᵀ Ω J` and `w Jᵀ Ω e`, and returns the total robust cost.
-    /// `nodes` and `edges` must be those the layout was built for.
+    /// Linearises every edge with a free end at the poses of `nodes`, fills `H` and `b` with
+    /// the robustly reweighted contributions `w Jᵀ Ω J` and `w Jᵀ Ω e`, and returns their total
+    /// robust cost ([`free_cost`](super::optimizer::free_cost): an edge between two fixed nodes
+    /// adds a constant). `nodes` and `edges` must be those the layout was built for.
     pub(crate) fn linearize(&mut self, nodes: &[Node], edges: &[Edge]) -> f64 {
         debug_assert_eq!(edges.len(), self.edge_slots.len());
         self.hessian.fill(0.0);
         self.gradient.fill(0.0);
         let mut cost = 0.0;
         for (edge, slots) in edges.iter().zip(&self.edge_slots) {
+            if slots.from_variable.is_none() && slots.to_variable.is_none() {
+                continue;
+            }
             let from_in_map = nodes[edge.from.0].pose_in_map;
             let to_in_map = nodes[edge.to.0].pose_in_map;
             let linearization = edge.linearize(from_in_map, to_in_map);

@@ -71,9 +71,10 @@ impl OptimizeOptions {
 pub struct OptimizeReport {
     /// Linear solves run, accepted or rejected.
     pub iterations: usize,
-    /// The total cost `Σ ρ(eᵀ Ω e)` before optimising; this is χ² when no edge has a kernel.
+    /// The total cost `Σ ρ(eᵀ Ω e)` before optimising, over the edges with a free end (an
+    /// edge between two fixed nodes adds a constant); this is χ² when no edge has a kernel.
     pub initial_cost: f64,
-    /// The total cost after optimising.
+    /// The same cost after optimising.
     pub final_cost: f64,
     /// Whether the stopping test on the relative cost change was met (or there was nothing to
     /// optimise) before `max_iterations` ran out or the damping reached its limit.
@@ -84,6 +85,21 @@ pub struct OptimizeReport {
 pub(crate) fn total_cost(nodes: &[Node], edges: &[Edge]) -> f64 {
     edges
         .iter()
+        .map(|edge| {
+            let chi2 = edge.chi2(nodes[edge.from.0].pose_in_map, nodes[edge.to.0].pose_in_map);
+            robust_cost(edge.kernel, chi2)
+        })
+        .sum()
+}
+
+/// The total robust cost of the edges of `edges` with at least one free end, at the poses of
+/// `nodes`: what optimisation can change. An edge between two fixed nodes adds a constant,
+/// and leaving it out keeps the stopping test relative to what the free nodes can still gain
+/// however much of the graph is fixed.
+pub(crate) fn free_cost(nodes: &[Node], edges: &[Edge]) -> f64 {
+    edges
+        .iter()
+        .filter(|edge| !(nodes[edge.from.0].fixed && nodes[edge.to.0].fixed))
         .map(|edge| {
             let chi2 = edge.chi2(nodes[edge.from.0].pose_in_map, nodes[edge.to.0].pose_in_map);
             robust_cost(edge.kernel, chi2)
@@ -134,7 +150,7 @@ pub(crate) fn levenberg_marquardt(
             }
         };
         system.apply_step(nodes, &mut candidate);
-        let new_cost = total_cost(&candidate, edges);
+        let new_cost = free_cost(&candidate, edges);
         let change_is_small = (cost - new_cost).abs() <= options.relative_cost_tolerance * cost;
         if new_cost < cost {
             // Gain ratio: actual over predicted reduction; near 1 the model is trustworthy.

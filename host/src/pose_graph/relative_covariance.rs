@@ -33,19 +33,22 @@ use crate::geometry::Pose2;
 /// The graph is explored from `source` in order of growing positional variance, and each
 /// node keeps the covariance of the path that reached it first (Bosse et al. 2004's "Dijkstra
 /// projection"): an upper bound of the true marginal, found without a factorisation.
+///
+/// Fixed nodes are the map's reference: they hold one another rigidly, so every fixed node
+/// receives the covariance of the first one reached, and the walk leaves them through any of
+/// their edges as from one node. In a graph whose settled part is fixed, the walk (the
+/// priority queue and the covariances it compounds) covers the free part only; gathering
+/// the edges and filling in the answer remain one pass over the graph.
 pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Matrix3<f64>>> {
     let nodes = graph.nodes();
     let mut covariances: Vec<Option<Matrix3<f64>>> = vec![None; nodes.len()];
     let Some(source_in_map) = nodes.get(source.0).map(|n| n.pose_in_map) else {
         return covariances;
     };
-    // Each edge once per end: (neighbour, edge index).
-    let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); nodes.len()];
-    for (index, edge) in graph.edges().iter().enumerate() {
-        neighbours[edge.from.0].push((edge.to.0, index));
-        neighbours[edge.to.0].push((edge.from.0, index));
-    }
+    let adjacency = Adjacency::new(graph);
     let mut settled = vec![false; nodes.len()];
+    // The fixed nodes, once the first of them is settled: they hold one another rigidly.
+    let mut fixed_covariance: Option<Matrix3<f64>> = None;
     covariances[source.0] = Some(Matrix3::zeros());
     // Keyed by the positional variance (trace of the translation block): non-negative floats
     // order as their bit patterns do.
@@ -58,13 +61,24 @@ pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Mat
         let Some(b_covariance) = covariances[b] else {
             continue;
         };
-        let b_in_map = nodes[b].pose_in_map;
-        // Moves a perturbation of `a_from_b` into the source's frame: Ad(source_from_b).
-        let into_source = adjoint(source_in_map.inverse() * b_in_map);
-        for &(a, index) in &neighbours[b] {
-            if settled[a] {
+        // Edges leave the fixed nodes together, each from its own end, as from one node.
+        let leaving: &[(usize, usize, usize)] = if nodes[b].fixed {
+            if fixed_covariance.is_some() {
                 continue;
             }
+            fixed_covariance = Some(b_covariance);
+            &adjacency.from_fixed
+        } else {
+            adjacency.edges_of_free(b)
+        };
+        for &(end, a, index) in leaving {
+            // Once the fixed nodes are reached, all of them are.
+            if settled[a] || (nodes[a].fixed && fixed_covariance.is_some()) {
+                continue;
+            }
+            let b_in_map = nodes[end].pose_in_map;
+            // Moves a perturbation of `a_from_b` into the source's frame: Ad(source_from_b).
+            let into_source = adjoint(source_in_map.inverse() * b_in_map);
             let edge = &graph.edges()[index];
             let a_in_map = nodes[a].pose_in_map;
             let Some(edge_covariance) = edge_covariance(graph, index) else {
@@ -87,7 +101,70 @@ pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Mat
             }
         }
     }
+    if let Some(covariance) = fixed_covariance {
+        for (entry, node) in covariances.iter_mut().zip(nodes) {
+            if node.fixed {
+                *entry = Some(covariance);
+            }
+        }
+    }
     covariances
+}
+
+/// The edges the projection walks, each once per free end, in edge order: those of a free
+/// node in one slice of a flat list, and those leaving the fixed nodes (to a free node) in
+/// another. An edge between two fixed nodes is left out: the fixed nodes do not move
+/// relative to one another.
+struct Adjacency {
+    /// `(node, neighbour, edge index)`, grouped by free node.
+    of_free: Vec<(usize, usize, usize)>,
+    /// Where each node's group starts in `of_free` (the node after it: where it ends).
+    starts: Vec<usize>,
+    /// `(fixed node, free neighbour, edge index)`.
+    from_fixed: Vec<(usize, usize, usize)>,
+}
+
+impl Adjacency {
+    fn new(graph: &PoseGraph) -> Adjacency {
+        let nodes = graph.nodes();
+        let free = |node: usize| !nodes[node].fixed;
+        let mut starts = vec![0usize; nodes.len() + 1];
+        let mut from_fixed = Vec::new();
+        for (index, edge) in graph.edges().iter().enumerate() {
+            let (from, to) = (edge.from.0, edge.to.0);
+            for (end, other) in [(from, to), (to, from)] {
+                if free(end) {
+                    starts[end + 1] += 1;
+                } else if free(other) {
+                    from_fixed.push((end, other, index));
+                }
+            }
+        }
+        for node in 0..nodes.len() {
+            starts[node + 1] += starts[node];
+        }
+        let mut filled = starts.clone();
+        let mut of_free = vec![(0, 0, 0); starts[nodes.len()]];
+        for (index, edge) in graph.edges().iter().enumerate() {
+            let (from, to) = (edge.from.0, edge.to.0);
+            for (end, other) in [(from, to), (to, from)] {
+                if free(end) {
+                    of_free[filled[end]] = (end, other, index);
+                    filled[end] += 1;
+                }
+            }
+        }
+        Adjacency {
+            of_free,
+            starts,
+            from_fixed,
+        }
+    }
+
+    /// The edges of free node `node`.
+    fn edges_of_free(&self, node: usize) -> &[(usize, usize, usize)] {
+        &self.of_free[self.starts[node]..self.starts[node + 1]]
+    }
 }
 
 /// The positional variance of a pose covariance: the trace of its translation block, m².
@@ -203,6 +280,41 @@ mod tests {
         assert_eq!(disputed.add_edge(wrong).ok(), Some(closure_id));
         let ignored = relative_covariances(&disputed, NodeId(40))[1].expect("reached");
         assert!(positional_variance(&ignored) > 0.9 * positional_variance(&far));
+    }
+
+    #[test]
+    fn fixed_nodes_are_one_rigid_reference() {
+        let steps = vec![Pose2::new(1.0, 0.0, 0.1); 10];
+        let mut graph = chain(&steps, [0.05, 0.05, 0.02]);
+        let free = relative_covariances(&graph, NodeId(10));
+        for node in 0..=5 {
+            graph.set_fixed(NodeId(node), true).expect("node");
+        }
+        let fixed = relative_covariances(&graph, NodeId(10));
+        // Beyond the first fixed node reached (5) nothing adds: the fixed nodes do not move
+        // relative to one another.
+        assert!(fixed[..=5].iter().all(|&covariance| covariance == free[5]));
+        assert_eq!(fixed[6..], free[6..]);
+        // From inside the fixed part, every fixed node is certain and the free ones are as
+        // far as their chain from node 5.
+        let inside = relative_covariances(&graph, NodeId(2));
+        assert!(
+            inside[..=5]
+                .iter()
+                .all(|c| c.is_some_and(|c| c.amax() == 0.0))
+        );
+        let from_five = {
+            let mut unfixed = chain(&steps, [0.05, 0.05, 0.02]);
+            unfixed.set_fixed(NodeId(0), false).expect("node");
+            relative_covariances(&unfixed, NodeId(5))
+        };
+        // The same chain seen from node 5, moved into node 2's frame.
+        let two_from_five = graph.nodes()[2].pose_in_map.inverse() * graph.nodes()[5].pose_in_map;
+        let flip = adjoint(two_from_five);
+        for node in 6..=10 {
+            let moved = flip * from_five[node].expect("reached") * flip.transpose();
+            assert!((moved - inside[node].expect("reached")).amax() < 1e-12);
+        }
     }
 
     #[test]
