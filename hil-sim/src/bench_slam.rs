@@ -83,6 +83,10 @@ pub struct BenchSlamRow {
     pub lost_scans: usize,
     /// Constraints of the final refinement.
     pub refinement_constraints: usize,
+    /// Nodes of the pose graph (the scans the motion filter inserted).
+    pub nodes: usize,
+    /// Of those, the nodes fixed because every submap they went into settled.
+    pub fixed_nodes: usize,
 }
 
 /// The whole table.
@@ -191,6 +195,8 @@ pub fn bench_slam(
             rejected_closures: stats.rejected_closures + stats.switched_off_closures,
             lost_scans: stats.lost_scans,
             refinement_constraints: stats.refinement_constraints,
+            nodes: stats.nodes,
+            fixed_nodes: stats.fixed_nodes,
         });
     }
     Ok(BenchSlamReport { logs: rows })
@@ -291,6 +297,8 @@ mod tests {
                 rejected_closures: 2,
                 lost_scans: 4,
                 refinement_constraints: 0,
+                nodes: 9,
+                fixed_nodes: 0,
             }],
         };
         let table = report.table();

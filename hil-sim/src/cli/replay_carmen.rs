@@ -53,6 +53,10 @@ pub struct ReplayCarmenArgs {
     /// is over).
     #[arg(long)]
     no_refinement: bool,
+    /// Keep every node of the pose graph free during the run: no place settles (see
+    /// docs/method2.md, "Settled places").
+    #[arg(long)]
+    no_settle: bool,
     /// Local tracking: below this share of the scanned surface (end points weighted by
     /// range) on the submap after alignment, the wide search runs.
     #[arg(long, default_value_t = host::slam::LocalTrackingOptions::default().min_surface_fraction, allow_hyphen_values = true, value_parser = parse_fraction)]
@@ -88,6 +92,7 @@ pub fn run(args: ReplayCarmenArgs) -> CliResult {
     slam.loop_closure.enabled = !args.no_loop_closure;
     slam.chain_closure.enabled = !args.no_chain_closure;
     slam.refinement.enabled = !args.no_refinement;
+    slam.settle.enabled = !args.no_settle;
     slam.local.min_surface_fraction = args.min_surface_fraction;
     slam.local.full_turn_below_surface_fraction = args.every_heading_below;
     slam.local.free_weight = args.free_weight;

@@ -31,18 +31,21 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
     if let Some(parts) = &timing.slam_parts_s {
         eprintln!(
             "hil-sim: the SLAM's time by part: tracking {:.2} s, choosing loop closures {:.2} s, \
-             searching them {:.2} s, optimising {:.2} s, the end of the run {:.2} s",
+             searching them {:.2} s, optimising {:.2} s, settling places {:.2} s, the end \
+             of the run {:.2} s",
             parts.tracking_s,
             parts.closure_candidates_s,
             parts.closure_searches_s,
             parts.optimization_s,
+            parts.settling_s,
             parts.finish_s,
         );
     }
     if let Some(work) = &timing.slam_work {
         eprintln!(
             "hil-sim: the SLAM's work: {} nodes of {} scans, {} submaps, {} loop-closure \
-             searches ({} over an uncertain pose's wide window), {} closures, {} optimisations",
+             searches ({} over an uncertain pose's wide window), {} closures, {} optimisations, \
+             {} nodes fixed where {} submaps settled",
             work.nodes,
             work.scans,
             work.submaps,
@@ -50,6 +53,8 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             work.uncertain_closure_searches,
             work.loop_closures,
             work.optimizations,
+            work.fixed_nodes,
+            work.settled_submaps,
         );
     }
     if summary.accounting_balanced {

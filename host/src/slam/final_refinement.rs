@@ -2,11 +2,11 @@
 //!
 //! During the run, loop closure searches only every few scans, and a scan is tied to the
 //! submaps it went into only through the chain of consecutive-scan constraints. Once the run
-//! is over and the graph optimised, every scan is aligned by point-to-line ICP on the
-//! finished submaps it did not go into whose frames lie within
-//! [`RefinementOptions::max_distance_m`] (the nearest few, see below), starting from their
-//! relative pose in the graph. An
-//! alignment that moves the scan by at most [`RefinementOptions::max_correction_m`] and
+//! is over and the graph optimised (every node free again, [`super::settled_submaps`]),
+//! every scan is aligned by point-to-line ICP on the finished submaps it did not go into
+//! whose frames lie within [`RefinementOptions::max_distance_m`] (the nearest few, see
+//! below), starting from their relative pose in the graph. An alignment that moves the scan
+//! by at most [`RefinementOptions::max_correction_m`] and
 //! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
 //! becomes a constraint like a loop closure's, and the graph is optimised once more. Every
 //! place seen again is then tied to the submaps that saw it, not only to the ones loop
@@ -26,11 +26,12 @@ use super::slam_submap::SlamSubmap;
 use crate::geometry::Pose2;
 use crate::scan_match::Scan;
 
-/// The constraints found for `scans` (in node order, the beams the SLAM trusted) at
-/// `poses_in_map` (the optimised graph, one per scan) in `submaps`. See the
-/// [module documentation](self).
+/// The constraints found for the scans of `nodes` (`scans` holds every node's, in node
+/// order, the beams the SLAM trusted) in `submaps`, each node and submap frame where
+/// `pose_in_map` puts it (the optimised graph). See the [module documentation](self).
 pub(crate) fn refinement_closures(
-    poses_in_map: &[Pose2],
+    pose_in_map: impl Fn(usize) -> Option<Pose2>,
+    nodes: &[usize],
     submaps: &[&SlamSubmap],
     scans: &[Scan],
     options: &SlamOptions,
@@ -38,15 +39,18 @@ pub(crate) fn refinement_closures(
     let refinement = &options.refinement;
     let loop_closure = &options.loop_closure;
     let mut closures = Vec::new();
-    for (node, (scan, &pose_in_map)) in scans.iter().zip(poses_in_map).enumerate() {
+    for &node in nodes {
+        let (Some(scan), Some(node_in_map)) = (scans.get(node), pose_in_map(node)) else {
+            continue;
+        };
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
         // The nearest submaps it did not go into, each with the scan's pose in it.
         let mut near: Vec<(f64, &SlamSubmap, Pose2)> = submaps
             .iter()
             .filter(|submap| !(submap.first_node()..=submap.last_node()).contains(&node))
             .filter_map(|&submap| {
-                let submap_in_map = poses_in_map.get(submap.first_node())?;
-                let guess = submap_in_map.inverse() * pose_in_map;
+                let submap_in_map = pose_in_map(submap.first_node())?;
+                let guess = submap_in_map.inverse() * node_in_map;
                 let distance_m = guess.x_m.hypot(guess.y_m);
                 (distance_m <= refinement.max_distance_m).then_some((distance_m, submap, guess))
             })
@@ -117,6 +121,10 @@ fn within_correction(guess: Pose2, aligned: Pose2, options: &RefinementOptions) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn every_node(scans: &[Scan]) -> Vec<usize> {
+        (0..scans.len()).collect()
+    }
     use crate::scan_match::synthetic::{cast_front_scan, irregular_room_walls};
 
     fn room_scan(pose: Pose2) -> Scan {
@@ -146,7 +154,13 @@ mod tests {
         submap.finish();
         scans.push(room_scan(true_pose));
         poses_in_map.push(held_pose);
-        refinement_closures(&poses_in_map, &[&submap], &scans, options)
+        refinement_closures(
+            |n| poses_in_map.get(n).copied(),
+            &every_node(&scans),
+            &[&submap],
+            &scans,
+            options,
+        )
     }
 
     #[test]
@@ -202,7 +216,13 @@ mod tests {
         poses_in_map.push(last);
         scans.push(room_scan(last));
         let submaps: Vec<&SlamSubmap> = submaps.iter().collect();
-        let closures = refinement_closures(&poses_in_map, &submaps, &scans, &options);
+        let closures = refinement_closures(
+            |n| poses_in_map.get(n).copied(),
+            &every_node(&scans),
+            &submaps,
+            &scans,
+            &options,
+        );
         let mut of_last: Vec<usize> = closures
             .iter()
             .filter(|c| c.node == 2 * laps)

@@ -11,6 +11,7 @@ use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
+use super::settled_submaps::SettledSubmaps;
 use super::slam_submap::SlamSubmap;
 use super::slam_timings::{SlamTimings, seconds_since};
 use crate::geometry::Pose2;
@@ -64,6 +65,12 @@ pub struct SlamStats {
     pub optimizations: usize,
     /// Optimisations that failed (the poses were kept as they were).
     pub failed_optimizations: usize,
+    /// Finished submaps settled: later passes closed on them and the graph agrees
+    /// ([`super::settled_submaps`]).
+    pub settled_submaps: usize,
+    /// Nodes fixed during the run because every submap they went into settled (the end of
+    /// the run releases them for its last solve).
+    pub fixed_nodes: usize,
 }
 
 /// The poses of every scan, optimised, and what it took.
@@ -146,6 +153,10 @@ pub struct GraphSlam {
     /// Constraints added without their robust kernel, which they receive after the next
     /// optimisation.
     unrobust_edges: Vec<EdgeId>,
+    /// Which submaps settled.
+    settled: SettledSubmaps,
+    /// The nodes fixed during the run, in the order they were fixed.
+    settled_nodes: Vec<usize>,
     stats: SlamStats,
     timings: SlamTimings,
 }
@@ -176,6 +187,8 @@ impl GraphSlam {
             scans: Vec::new(),
             closure_edges: Vec::new(),
             unrobust_edges: Vec::new(),
+            settled: SettledSubmaps::new(options.settle.clone()),
+            settled_nodes: Vec::new(),
             stats: SlamStats::default(),
             timings: SlamTimings::default(),
             options,
@@ -254,6 +267,8 @@ impl GraphSlam {
             // The end points are the node scans again: drawn from those when searched around
             // a guess.
             submap.forget_end_points();
+            self.settled
+                .finished(submap.first_node()..=submap.last_node());
             self.finished.push((submap, reference));
             self.last_search.push(0);
             self.last_uncertain_search.push(0);
@@ -284,20 +299,29 @@ impl GraphSlam {
         self.timings.closure_searches_s += (seconds_since(started) - apart_s).max(0.0);
         self.scans.push(scan);
         let chi2 = self.chi2_since_optimization;
+        let optimizations = self.stats.optimizations;
         if chi2.is_nan() || chi2 > self.options.solve_above_chi2 {
             self.optimize();
         }
+        self.settle(node, self.stats.optimizations > optimizations);
         self.node_pose_in_map(node).unwrap_or(pose_in_map)
     }
 
-    /// Ends the run: a last optimisation if loops were found since the previous one, the final
-    /// refinement ([`super::final_refinement`], when enabled) and the poses of every scan.
+    /// Ends the run: every settled node released and a last optimisation if any were or if
+    /// loops were found since the previous one, the final refinement
+    /// ([`super::final_refinement`], when enabled) and the poses of every scan.
     pub fn finish(mut self) -> SlamResult {
         let started = Instant::now();
         let optimization_s = self.timings.optimization_s;
         let active = self.tracker.finish();
         self.stats.submaps += active.len();
-        if self.closures_since_optimization > 0 {
+        // The last solve and the refinement move the settled nodes again with the rest, as
+        // every later pass tells.
+        for &settled in &self.settled_nodes {
+            let _ = self.graph.set_fixed(NodeId(settled), false);
+        }
+        let released = !self.settled_nodes.is_empty();
+        if self.closures_since_optimization > 0 || released {
             self.optimize();
         }
         if self.options.refinement.enabled {
@@ -326,6 +350,8 @@ impl GraphSlam {
         SlamStats {
             nodes: self.poses_in_local.len(),
             rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
+            settled_submaps: self.settled.settled_submaps(),
+            fixed_nodes: self.settled_nodes.len(),
             ..self.stats
         }
     }
@@ -545,11 +571,39 @@ impl GraphSlam {
             &mut self.stats.chain_closure_searches,
         );
         for confirmed in confirmed {
-            if self.add_constraint(confirmed) {
+            let frame_node = confirmed.submap_first_node;
+            if let Some(id) = self.add_constraint(confirmed) {
+                self.settled.closure_on_node(frame_node, id);
                 self.stats.loop_closures += 1;
                 self.stats.chain_closures += 1;
             }
         }
+    }
+
+    /// Settles the submaps whose closures now agree with the graph (`graph_moved`: it was
+    /// solved for this scan, `node`) and fixes the nodes all of whose submaps settled.
+    fn settle(&mut self, node: usize, graph_moved: bool) {
+        let started = Instant::now();
+        let first_active_node = self
+            .tracker
+            .active_submaps()
+            .iter()
+            .map(SlamSubmap::first_node)
+            .min()
+            .unwrap_or(node);
+        let ready = self.settled.settle(
+            &self.graph,
+            self.options.solve_above_chi2,
+            self.options.degenerate_information_ratio,
+            first_active_node,
+            graph_moved,
+        );
+        for settled in ready {
+            if self.graph.set_fixed(NodeId(settled), true).is_ok() {
+                self.settled_nodes.push(settled);
+            }
+        }
+        self.timings.settling_s += seconds_since(started);
     }
 
     /// Adds the final refinement's constraints (`active`: the submaps still active at the
@@ -561,14 +615,16 @@ impl GraphSlam {
             .map(|(submap, _)| submap)
             .chain(active)
             .collect();
+        let every_node: Vec<usize> = (0..self.graph.nodes().len()).collect();
         let closures = refinement_closures(
-            &self.node_poses_in_map(),
+            |node| self.node_pose_in_map(node),
+            &every_node,
             &submaps,
             &self.scans,
             &self.options,
         );
         for closure in closures {
-            if self.add_constraint(closure) {
+            if self.add_constraint(closure).is_some() {
                 self.stats.refinement_constraints += 1;
             }
         }
@@ -578,8 +634,10 @@ impl GraphSlam {
     }
 
     fn add_closure(&mut self, closure: FoundClosure) {
-        if self.add_constraint(closure) {
+        let submap_first_node = closure.submap_first_node;
+        if let Some(id) = self.add_constraint(closure) {
             self.stats.loop_closures += 1;
+            self.settled.closure_on_submap(submap_first_node, id);
         }
     }
 
@@ -591,15 +649,15 @@ impl GraphSlam {
     /// kernel would weaken, but whose error is within the uncertainty of the scan's pose
     /// relative to the submap (its χ² against the sum of both covariances within
     /// [`LoopClosureOptions::max_consistent_chi2`](super::LoopClosureOptions::max_consistent_chi2)),
-    /// is solved once without the kernel, and keeps it from then on.
-    fn add_constraint(&mut self, closure: FoundClosure) -> bool {
+    /// is solved once without the kernel, and keeps it from then on. Returns the edge added.
+    fn add_constraint(&mut self, closure: FoundClosure) -> Option<EdgeId> {
         let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
         let information = closure_information(&self.options, closure.information_in_robot.as_ref());
         let kernel = self.options.loop_closure_kernel;
         let edge = Edge::new(from, to, closure.pose_in_submap, information).with_kernel(kernel);
         let within_uncertainty = self.is_within_uncertainty(&edge);
         let Ok(id) = self.graph.add_edge(edge) else {
-            return false;
+            return None;
         };
         if within_uncertainty && self.graph.set_kernel(id, None).is_ok() {
             self.unrobust_edges.push(id);
@@ -615,7 +673,7 @@ impl GraphSlam {
                 .edge_chi2(id)
                 .map_or(f64::INFINITY, |chi2| kernel.weight(chi2) * chi2)
         };
-        true
+        Some(id)
     }
 
     /// Whether the kernel would weaken `edge` (not yet in the graph) at the current poses,
@@ -831,6 +889,14 @@ mod tests {
         assert!(
             stats.optimizations * 5 < solved_each.optimizations,
             "{stats:?} against {solved_each:?}"
+        );
+        // The laps agree: the early ones settled, and the solves work on the later ones.
+        let free = slam.graph.nodes().iter().filter(|n| !n.fixed).count();
+        assert!(stats.settled_submaps > 0, "{stats:?}");
+        assert_eq!(stats.fixed_nodes, slam.graph.nodes().len() - free - 1);
+        assert!(
+            free < slam.graph.nodes().len() / 2,
+            "{free} free: {stats:?}"
         );
         let result = slam.finish();
         // Every part of the run was timed, each apart.

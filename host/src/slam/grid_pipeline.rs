@@ -111,7 +111,7 @@ impl GridPipeline {
     }
 
     /// Ends the run: the SLAM's final refinement (every node aligned on the submaps near it,
-    /// [`GraphSlam::finish`]) and its last optimisation. Scans that come later are not used.
+    /// [`GraphSlam::finish`]) and its last optimisation, with every node free. Scans that come later are not used.
     pub fn finish(&mut self) {
         if let Some(slam) = self.slam.take() {
             let result = slam.finish();

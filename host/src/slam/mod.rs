@@ -27,6 +27,11 @@
 //!   per loop closure (robust kernel) from the submap's first
 //!   scan; solved with a sparse Cholesky factorisation once the closures added since the last
 //!   solve disagree with the graph ([`SlamOptions::solve_above_chi2`]), and at the end.
+//! * **Settled places** ([`settled_submaps`]): a finished submap that later passes closed on,
+//!   and that the graph agrees with, settles; once all of a node's submaps settled the node
+//!   is fixed, and during the run the solves and the relative covariances work on
+//!   the free part of the graph only, which follows the places not yet settled rather than
+//!   the time spent. The last solve releases them.
 //! * **Final refinement** ([`final_refinement`]): at the end of a run, every scan is aligned
 //!   on the finished submaps near it, and the alignments that fit become constraints too.
 //!
@@ -49,6 +54,7 @@ mod options;
 pub mod point_grid;
 pub mod point_map;
 mod recent_scans;
+pub mod settled_submaps;
 mod slam_submap;
 mod slam_timings;
 mod window_matcher;
@@ -65,5 +71,6 @@ pub use options::{
 };
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;
+pub use settled_submaps::SettleOptions;
 pub use slam_submap::{SlamSubmap, SubmapFit};
 pub use slam_timings::SlamTimings;

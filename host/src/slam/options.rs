@@ -5,6 +5,7 @@ use super::icp::IcpOptions;
 use super::motion_filter::MotionFilterOptions;
 use super::motion_prior::MotionPriorOptions;
 use super::point_map::PointMapOptions;
+use super::settled_submaps::SettleOptions;
 use super::slam_submap::SubmapFit;
 use crate::grid::SubmapOptions;
 use crate::pose_graph::{OptimizeOptions, RobustKernel};
@@ -37,6 +38,9 @@ pub struct SlamOptions {
     pub uncertain_closure: UncertainClosureOptions,
     /// The alignment of every scan on the submaps near it at the end of a run.
     pub refinement: RefinementOptions,
+    /// When a place later passes agree on becomes part of the fixed reference
+    /// ([`super::settled_submaps`]).
+    pub settle: SettleOptions,
     /// Standard deviation of a consecutive-scan constraint: translation (m), rotation (rad).
     pub odometry_sigma: [f64; 2],
     /// A constraint (scan to scan, loop closure, final refinement) is left almost free along
@@ -62,7 +66,8 @@ pub struct SlamOptions {
     /// poses already satisfy within their covariance would move them by less than the
     /// constraints' own uncertainty, and those the kernel switches off would not move them:
     /// they wait for the next solve (or the end of the run) instead of costing a solve of the
-    /// whole graph each. With the default kernel one closure adds at most `Φ` (10) however
+    /// graph's free nodes each. A loop closure that agrees in this sense also counts towards
+    /// settling its submap ([`super::settled_submaps`]). With the default kernel one closure adds at most `Φ` (10) however
     /// far off it is, so one alone triggers a solve only when `Φ` exceeds this value.
     pub solve_above_chi2: f64,
 }
@@ -117,6 +122,7 @@ impl Default for SlamOptions {
             chain_closure: ChainClosureOptions::default(),
             uncertain_closure: UncertainClosureOptions::default(),
             refinement: RefinementOptions::default(),
+            settle: SettleOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
             degenerate_information_ratio: 0.03,
             degenerate_sigma_m: 3.0,

@@ -20,9 +20,13 @@ pub struct SlamTimings {
     /// Loop-closure searches: in finished submaps, in chains of earlier scans and around a
     /// guess for an uncertain pose, with their acceptance and confirmation.
     pub closure_searches_s: f64,
-    /// Optimisations of the whole graph during the run.
+    /// Optimisations of the graph's free nodes during the run.
     pub optimization_s: f64,
-    /// The end of the run: the last optimisation and the final refinement.
+    /// Settling places during the run ([`super::settled_submaps`]): testing which submaps
+    /// settled, and fixing their nodes.
+    pub settling_s: f64,
+    /// The end of the run: the last optimisation, with every node free, and the final
+    /// refinement.
     pub finish_s: f64,
 }
 
