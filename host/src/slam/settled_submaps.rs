@@ -35,6 +35,7 @@
 use std::collections::HashMap;
 use std::ops::RangeInclusive;
 
+use super::degeneracy::weak_translation;
 use crate::pose_graph::{EdgeId, NodeId, PoseGraph};
 
 /// When a finished submap is settled. See the [module documentation](self).
@@ -150,11 +151,7 @@ impl SettledSubmaps {
         tested.dedup();
         let agrees = |edge: &EdgeId| {
             let well_conditioned = graph.edges().get(edge.0).is_some_and(|edge| {
-                let translation = edge
-                    .information
-                    .fixed_view::<2, 2>(0, 0)
-                    .symmetric_eigenvalues();
-                translation.min() >= min_information_ratio * translation.max()
+                weak_translation(&edge.information, min_information_ratio).is_none()
             });
             well_conditioned
                 && graph
