@@ -137,18 +137,23 @@ impl PointMap {
 pub fn points_with_normals(scan: &Scan, options: &PointMapOptions) -> Vec<([f64; 2], [f64; 2])> {
     let points = scan.points_in_robot();
     let mut out = Vec::with_capacity(points.len());
+    // One buffer for every beam's neighbours: a scan has hundreds of beams, and an
+    // allocation for each, over a run of hours, leaves the allocator ever slower.
+    let mut neighbours: Vec<[f64; 2]> = Vec::with_capacity(2 * options.normal_beams + 1);
     for (index, point) in points.iter().enumerate() {
         let Some(center) = *point else { continue };
         let range_m = center[0].hypot(center[1]);
         let radius_sq = (options.normal_radius_m + options.normal_radius_per_m * range_m).powi(2);
         let first = index.saturating_sub(options.normal_beams);
         let last = (index + options.normal_beams).min(points.len() - 1);
-        let neighbours: Vec<[f64; 2]> = points[first..=last]
-            .iter()
-            .flatten()
-            .copied()
-            .filter(|p| (p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2) <= radius_sq)
-            .collect();
+        neighbours.clear();
+        neighbours.extend(
+            points[first..=last]
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|p| (p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2) <= radius_sq),
+        );
         if let Some(normal) = surface_normal(&neighbours, options.max_flatness_ratio) {
             out.push((center, normal));
         }
