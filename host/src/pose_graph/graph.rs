@@ -10,6 +10,7 @@
 
 use std::ops::Index;
 
+use super::adjacency::Adjacency;
 use super::edge::{Edge, EdgeId, pose_is_finite};
 use super::error::PoseGraphError;
 use super::node::{Node, NodeId};
@@ -189,17 +190,17 @@ impl PoseGraph {
 
     /// Checks that every free node reaches a fixed node through edges.
     fn check_anchored(&self) -> Result<(), PoseGraphError> {
-        let mut neighbours = vec![Vec::new(); self.nodes.len()];
-        for edge in &self.edges {
-            neighbours[edge.from.0].push(edge.to.0);
-            neighbours[edge.to.0].push(edge.from.0);
-        }
+        let adjacency = Adjacency::new(self);
         let mut reached: Vec<bool> = self.nodes.iter().map(|node| node.fixed).collect();
-        let mut frontier: Vec<usize> = (0..self.nodes.len()).filter(|&i| reached[i]).collect();
+        let mut frontier = Vec::new();
+        for &(_, free, _) in &adjacency.from_fixed {
+            if !std::mem::replace(&mut reached[free], true) {
+                frontier.push(free);
+            }
+        }
         while let Some(node) = frontier.pop() {
-            for &next in &neighbours[node] {
-                if !reached[next] {
-                    reached[next] = true;
+            for &(_, next, _) in adjacency.edges_of_free(node) {
+                if !std::mem::replace(&mut reached[next], true) {
                     frontier.push(next);
                 }
             }

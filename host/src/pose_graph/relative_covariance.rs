@@ -17,10 +17,13 @@
 //! every covariance returned is of the source's pose, in the source's own frame.
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap, HashSet};
+
+use foldhash::fast::FixedState;
 
 use nalgebra::Matrix3;
 
+use super::adjacency::Adjacency;
 use super::graph::PoseGraph;
 use super::node::NodeId;
 use crate::geometry::Pose2;
@@ -42,66 +45,13 @@ use crate::geometry::Pose2;
 pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Matrix3<f64>>> {
     let nodes = graph.nodes();
     let mut covariances: Vec<Option<Matrix3<f64>>> = vec![None; nodes.len()];
-    let Some(source_in_map) = nodes.get(source.0).map(|n| n.pose_in_map) else {
+    let Some(walk) = Walk::new(graph, source, None) else {
         return covariances;
     };
-    let adjacency = Adjacency::new(graph);
-    let mut settled = vec![false; nodes.len()];
-    // The fixed nodes, once the first of them is settled: they hold one another rigidly.
-    let mut fixed_covariance: Option<Matrix3<f64>> = None;
-    covariances[source.0] = Some(Matrix3::zeros());
-    // Keyed by the positional variance (trace of the translation block): non-negative floats
-    // order as their bit patterns do.
-    let mut queue = BinaryHeap::new();
-    queue.push(Reverse((0u64, source.0)));
-    while let Some(Reverse((_, b))) = queue.pop() {
-        if std::mem::replace(&mut settled[b], true) {
-            continue;
-        }
-        let Some(b_covariance) = covariances[b] else {
-            continue;
-        };
-        // Edges leave the fixed nodes together, each from its own end, as from one node.
-        let leaving: &[(usize, usize, usize)] = if nodes[b].fixed {
-            if fixed_covariance.is_some() {
-                continue;
-            }
-            fixed_covariance = Some(b_covariance);
-            &adjacency.from_fixed
-        } else {
-            adjacency.edges_of_free(b)
-        };
-        for &(end, a, index) in leaving {
-            // Once the fixed nodes are reached, all of them are.
-            if settled[a] || (nodes[a].fixed && fixed_covariance.is_some()) {
-                continue;
-            }
-            let b_in_map = nodes[end].pose_in_map;
-            // Moves a perturbation of `a_from_b` into the source's frame: Ad(source_from_b).
-            let into_source = adjoint(source_in_map.inverse() * b_in_map);
-            let edge = &graph.edges()[index];
-            let a_in_map = nodes[a].pose_in_map;
-            let Some(edge_covariance) = edge_covariance(graph, index) else {
-                continue;
-            };
-            // The edge measures `to` in `from`; seen from `a` it is `a_from_b`.
-            let a_from_b_covariance = if edge.from.0 == a {
-                edge_covariance
-            } else {
-                let b_from_a = b_in_map.inverse() * a_in_map;
-                let flip = adjoint(b_from_a);
-                flip * edge_covariance * flip.transpose()
-            };
-            let candidate =
-                into_source * a_from_b_covariance * into_source.transpose() + b_covariance;
-            let key = positional_variance(&candidate);
-            if covariances[a].is_none_or(|known| key < positional_variance(&known)) {
-                covariances[a] = Some(candidate);
-                queue.push(Reverse((key.to_bits(), a)));
-            }
-        }
+    for (&node, &covariance) in &walk.covariances {
+        covariances[node] = Some(covariance);
     }
-    if let Some(covariance) = fixed_covariance {
+    if let Some(covariance) = walk.fixed_covariance {
         for (entry, node) in covariances.iter_mut().zip(nodes) {
             if node.fixed {
                 *entry = Some(covariance);
@@ -111,59 +61,103 @@ pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Mat
     covariances
 }
 
-/// The edges the projection walks, each once per free end, in edge order: those of a free
-/// node in one slice of a flat list, and those leaving the fixed nodes (to a free node) in
-/// another. An edge between two fixed nodes is left out: the fixed nodes do not move
-/// relative to one another.
-struct Adjacency {
-    /// `(node, neighbour, edge index)`, grouped by free node.
-    of_free: Vec<(usize, usize, usize)>,
-    /// Where each node's group starts in `of_free` (the node after it: where it ends).
-    starts: Vec<usize>,
-    /// `(fixed node, free neighbour, edge index)`.
-    from_fixed: Vec<(usize, usize, usize)>,
+/// The covariance of the pose of `source` relative to `target` alone: what
+/// [`relative_covariances`] gives for `target`, to the same bits. The walk stops once it
+/// reaches `target`, so it covers only the nodes more certain than it: for a target near the
+/// source, a few, however large the graph.
+pub fn relative_covariance(
+    graph: &PoseGraph,
+    source: NodeId,
+    target: NodeId,
+) -> Option<Matrix3<f64>> {
+    let walk = Walk::new(graph, source, Some(target.0))?;
+    if graph.node(target)?.fixed {
+        walk.fixed_covariance
+    } else {
+        walk.covariances.get(&target.0).copied()
+    }
 }
 
-impl Adjacency {
-    fn new(graph: &PoseGraph) -> Adjacency {
-        let nodes = graph.nodes();
-        let free = |node: usize| !nodes[node].fixed;
-        let mut starts = vec![0usize; nodes.len() + 1];
-        let mut from_fixed = Vec::new();
-        for (index, edge) in graph.edges().iter().enumerate() {
-            let (from, to) = (edge.from.0, edge.to.0);
-            for (end, other) in [(from, to), (to, from)] {
-                if free(end) {
-                    starts[end + 1] += 1;
-                } else if free(other) {
-                    from_fixed.push((end, other, index));
-                }
-            }
-        }
-        for node in 0..nodes.len() {
-            starts[node + 1] += starts[node];
-        }
-        let mut filled = starts.clone();
-        let mut of_free = vec![(0, 0, 0); starts[nodes.len()]];
-        for (index, edge) in graph.edges().iter().enumerate() {
-            let (from, to) = (edge.from.0, edge.to.0);
-            for (end, other) in [(from, to), (to, from)] {
-                if free(end) {
-                    of_free[filled[end]] = (end, other, index);
-                    filled[end] += 1;
-                }
-            }
-        }
-        Adjacency {
-            of_free,
-            starts,
-            from_fixed,
-        }
-    }
+/// What a walk of the Dijkstra projection found: the covariance of every node it reached
+/// (the fixed ones as one, apart).
+struct Walk {
+    covariances: HashMap<usize, Matrix3<f64>, FixedState>,
+    /// The fixed nodes', once the first of them was settled: they hold one another rigidly.
+    fixed_covariance: Option<Matrix3<f64>>,
+}
 
-    /// The edges of free node `node`.
-    fn edges_of_free(&self, node: usize) -> &[(usize, usize, usize)] {
-        &self.of_free[self.starts[node]..self.starts[node + 1]]
+impl Walk {
+    /// Walks from `source` until every node it reaches is settled, or `until` is; `None` when
+    /// `source` is not in the graph.
+    fn new(graph: &PoseGraph, source: NodeId, until: Option<usize>) -> Option<Walk> {
+        let nodes = graph.nodes();
+        let source_in_map = nodes.get(source.0)?.pose_in_map;
+        let adjacency = Adjacency::new(graph);
+        let mut settled: HashSet<usize, FixedState> = HashSet::default();
+        let mut walk = Walk {
+            covariances: HashMap::from_iter([(source.0, Matrix3::zeros())]),
+            fixed_covariance: None,
+        };
+        let until_fixed = until.is_some_and(|node| nodes.get(node).is_some_and(|n| n.fixed));
+        // Keyed by the positional variance (trace of the translation block): non-negative
+        // floats order as their bit patterns do.
+        let mut queue = BinaryHeap::new();
+        queue.push(Reverse((0u64, source.0)));
+        while let Some(Reverse((_, b))) = queue.pop() {
+            if !settled.insert(b) {
+                continue;
+            }
+            let Some(&b_covariance) = walk.covariances.get(&b) else {
+                continue;
+            };
+            // Edges leave the fixed nodes together, each from its own end, as from one node.
+            let leaving: &[(usize, usize, usize)] = if nodes[b].fixed {
+                if walk.fixed_covariance.is_some() {
+                    continue;
+                }
+                walk.fixed_covariance = Some(b_covariance);
+                if until_fixed {
+                    break;
+                }
+                &adjacency.from_fixed
+            } else {
+                if until == Some(b) {
+                    break;
+                }
+                adjacency.edges_of_free(b)
+            };
+            for &(end, a, index) in leaving {
+                // Once the fixed nodes are reached, all of them are.
+                if settled.contains(&a) || (nodes[a].fixed && walk.fixed_covariance.is_some()) {
+                    continue;
+                }
+                let b_in_map = nodes[end].pose_in_map;
+                // Moves a perturbation of `a_from_b` into the source's frame: Ad(source_from_b).
+                let into_source = adjoint(source_in_map.inverse() * b_in_map);
+                let edge = &graph.edges()[index];
+                let a_in_map = nodes[a].pose_in_map;
+                let Some(edge_covariance) = edge_covariance(graph, index) else {
+                    continue;
+                };
+                // The edge measures `to` in `from`; seen from `a` it is `a_from_b`.
+                let a_from_b_covariance = if edge.from.0 == a {
+                    edge_covariance
+                } else {
+                    let b_from_a = b_in_map.inverse() * a_in_map;
+                    let flip = adjoint(b_from_a);
+                    flip * edge_covariance * flip.transpose()
+                };
+                let candidate =
+                    into_source * a_from_b_covariance * into_source.transpose() + b_covariance;
+                let key = positional_variance(&candidate);
+                let known = walk.covariances.get(&a);
+                if known.is_none_or(|known| key < positional_variance(known)) {
+                    walk.covariances.insert(a, candidate);
+                    queue.push(Reverse((key.to_bits(), a)));
+                }
+            }
+        }
+        Some(walk)
     }
 }
 
@@ -315,6 +309,36 @@ mod tests {
             let moved = flip * from_five[node].expect("reached") * flip.transpose();
             assert!((moved - inside[node].expect("reached")).amax() < 1e-12);
         }
+    }
+
+    #[test]
+    fn one_target_gets_the_bits_of_the_whole_walk() {
+        // A turning chain with a loop closure back to its start, nodes 3 to 6 fixed, and a
+        // node no edge reaches.
+        let steps = vec![Pose2::new(1.0, 0.0, 0.3); 14];
+        let mut graph = chain(&steps, [0.05, 0.03, 0.02]);
+        let closure = Edge::new(
+            NodeId(0),
+            NodeId(14),
+            graph.nodes()[0].pose_in_map.inverse() * graph.nodes()[14].pose_in_map,
+            Edge::information_from_std_devs(0.02, 0.02, 0.01),
+        );
+        assert!(graph.add_edge(closure).is_ok());
+        let _ = graph.add_node(Pose2::new(50.0, 0.0, 0.0));
+        for node in 3..=6 {
+            graph.set_fixed(NodeId(node), true).expect("node");
+        }
+        for source in [0, 4, 9, 14, 15] {
+            let every = relative_covariances(&graph, NodeId(source));
+            for (target, covariance) in every.iter().enumerate() {
+                assert_eq!(
+                    relative_covariance(&graph, NodeId(source), NodeId(target)),
+                    *covariance,
+                    "from {source} to {target}"
+                );
+            }
+        }
+        assert_eq!(relative_covariance(&graph, NodeId(0), NodeId(99)), None);
     }
 
     #[test]

@@ -12,13 +12,17 @@ use super::loop_closer::LoopCloser;
 use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
 use crate::geometry::Pose2;
+use crate::pose_graph::Node;
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What the graph holds now, for a chain search.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ChainContext<'a> {
-    /// Every scan's pose in the map as the graph holds it.
-    pub poses_in_map: &'a [Pose2],
+    /// Every node as the graph holds it.
+    pub nodes: &'a [Node],
+    /// The earlier node nearest to the scan, within the search's `max_distance_m` and at
+    /// least its `min_scans_apart` before it, if any ([`super::node_index`]).
+    pub nearest_earlier: Option<usize>,
     /// Every scan's pose in the local tracking frame.
     pub poses_in_local: &'a [Pose2],
     /// Every scan added (trusted beams).
@@ -126,16 +130,20 @@ impl ChainCloser {
     ) -> Option<FoundClosure> {
         let chain = &self.options.chain_closure;
         let last_chained = node.checked_sub(chain.search.min_scans_apart)?;
-        let poses = context.poses_in_map;
-        let distance_m =
-            |pose: &Pose2| (pose.x_m - pose_in_map.x_m).hypot(pose.y_m - pose_in_map.y_m);
-        let centre = (0..=last_chained)
-            .filter(|&n| n < poses.len() && n < context.scans.len())
-            .min_by(|&a, &b| distance_m(&poses[a]).total_cmp(&distance_m(&poses[b])))
-            .filter(|&n| distance_m(&poses[n]) <= chain.search.max_distance_m)?;
+        let centre = context
+            .nearest_earlier
+            .filter(|&n| n <= last_chained && n < context.scans.len())?;
         let first = centre.saturating_sub(chain.half_length_scans);
-        let last = (centre + chain.half_length_scans).min(last_chained);
-        let frame = poses[centre];
+        let last = (centre + chain.half_length_scans)
+            .min(last_chained)
+            .min(context.scans.len() - 1);
+        let poses: Vec<Pose2> = context
+            .nodes
+            .get(first..=last)?
+            .iter()
+            .map(|n| n.pose_in_map)
+            .collect();
+        let frame = poses[centre - first];
         // Only an optimisation moves earlier scans: until then, the same chain draws the same.
         let key = ([centre, first, last], context.optimizations);
         if self
@@ -146,10 +154,8 @@ impl ChainCloser {
             // The grid waits until a match needs it (`DrawnChain::draw_grid`).
             let mut submap =
                 SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
-            for (chained, (scan, &pose)) in context.scans[first..=last]
-                .iter()
-                .zip(&poses[first..=last])
-                .enumerate()
+            for (chained, (scan, &pose)) in
+                context.scans[first..=last].iter().zip(&poses).enumerate()
             {
                 submap.insert_points(first + chained, scan, pose);
             }
@@ -168,7 +174,7 @@ impl ChainCloser {
         let candidate = self
             .closer
             .align(&drawn.submap, &drawn.reference, scan, guess)?;
-        drawn.draw_grid(&context.scans[first..=last], &poses[first..=last]);
+        drawn.draw_grid(&context.scans[first..=last], &poses);
         let closure = self.closer.accept(&drawn.submap, &candidate)?;
         Some(FoundClosure {
             submap_first_node: centre,

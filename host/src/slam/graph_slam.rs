@@ -10,13 +10,16 @@ use super::degeneracy::{closure_information, consecutive_information};
 use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
+use super::node_index::NodeIndex;
 use super::options::SlamOptions;
 use super::settled_submaps::SettledSubmaps;
 use super::slam_submap::SlamSubmap;
 use super::slam_timings::{SlamTimings, seconds_since};
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
-use crate::pose_graph::{Edge, EdgeId, NodeId, PoseGraph, relative_covariances};
+use crate::pose_graph::{
+    Edge, EdgeId, NodeId, PoseGraph, relative_covariance, relative_covariances,
+};
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
@@ -157,6 +160,8 @@ pub struct GraphSlam {
     settled: SettledSubmaps,
     /// The nodes fixed during the run, in the order they were fixed.
     settled_nodes: Vec<usize>,
+    /// Where the nodes lie, for the chain search's nearest node.
+    node_index: NodeIndex,
     stats: SlamStats,
     timings: SlamTimings,
 }
@@ -189,6 +194,7 @@ impl GraphSlam {
             unrobust_edges: Vec::new(),
             settled: SettledSubmaps::new(options.settle.clone()),
             settled_nodes: Vec::new(),
+            node_index: NodeIndex::new(options.chain_closure.search.max_distance_m.max(1.0)),
             stats: SlamStats::default(),
             timings: SlamTimings::default(),
             options,
@@ -229,6 +235,7 @@ impl GraphSlam {
         if self.graph.add_node(pose_in_map).is_ok() && node == 0 {
             let _ = self.graph.set_fixed(NodeId(0), true);
         }
+        self.node_index.add(node);
         if let Some(&previous) = self.poses_in_local.last() {
             // A lost scan's pose is the prediction, as uncertain as the motion prior says.
             let information = if tracked.lost {
@@ -557,13 +564,13 @@ impl GraphSlam {
 
     /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
     fn close_loops_in_chain(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
-        let poses = self.node_poses_in_map();
         let confirmed = self.chains.close(
             node,
             scan,
             pose_in_map,
             &ChainContext {
-                poses_in_map: &poses,
+                nodes: self.graph.nodes(),
+                nearest_earlier: self.nearest_earlier_node(node, pose_in_map),
                 poses_in_local: &self.poses_in_local,
                 scans: &self.scans,
                 optimizations: self.stats.optimizations,
@@ -578,6 +585,19 @@ impl GraphSlam {
                 self.stats.chain_closures += 1;
             }
         }
+    }
+
+    /// The node nearest to `pose_in_map` that a chain search from `node` may centre on:
+    /// within the chain search's distance, and at least its scans apart before `node`.
+    fn nearest_earlier_node(&self, node: usize, pose_in_map: Pose2) -> Option<usize> {
+        let search = &self.options.chain_closure.search;
+        let last = node.checked_sub(search.min_scans_apart)?;
+        self.node_index.nearest(
+            [pose_in_map.x_m, pose_in_map.y_m],
+            search.max_distance_m,
+            last,
+            |n| self.node_pose_in_map(n),
+        )
     }
 
     /// Settles the submaps whose closures now agree with the graph (`graph_moved`: it was
@@ -601,6 +621,9 @@ impl GraphSlam {
         for settled in ready {
             if self.graph.set_fixed(NodeId(settled), true).is_ok() {
                 self.settled_nodes.push(settled);
+                if let Some(pose) = self.node_pose_in_map(settled) {
+                    self.node_index.fix(settled, pose);
+                }
             }
         }
         self.timings.settling_s += seconds_since(started);
@@ -686,10 +709,7 @@ impl GraphSlam {
         if edge.kernel.is_none_or(|kernel| kernel.weight(chi2) >= 1.0) {
             return false;
         }
-        let relative = relative_covariances(&self.graph, edge.to)
-            .get(edge.from.0)
-            .copied()
-            .flatten();
+        let relative = relative_covariance(&self.graph, edge.to, edge.from);
         let Some(combined) = relative
             .zip(edge.information.try_inverse())
             .and_then(|(relative, own)| (relative + own).try_inverse())
@@ -953,9 +973,9 @@ mod tests {
         let node = earlier_len;
         let origin = truth[0].inverse();
         let believed = origin * truth[node] * Pose2::new(-3.0, 0.0, 0.0);
-        let poses = slam.poses_in_map();
         let context = ChainContext {
-            poses_in_map: &poses,
+            nodes: slam.graph.nodes(),
+            nearest_earlier: slam.nearest_earlier_node(node, believed),
             poses_in_local: &slam.poses_in_local,
             scans: &slam.scans,
             optimizations: slam.stats.optimizations,

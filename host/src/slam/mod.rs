@@ -50,6 +50,7 @@ mod local_tracker;
 mod loop_closer;
 pub mod motion_filter;
 pub mod motion_prior;
+mod node_index;
 mod options;
 pub mod point_grid;
 pub mod point_map;
