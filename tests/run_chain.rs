@@ -127,6 +127,17 @@ fn link_replug_losses_are_counted_by_the_host() {
         (8..=14).contains(&summary.counted.host_scan_counter_gaps),
         "{summary:#?}"
     );
+    // Fewer than 1 000 scans: the first and the last window are the whole run, and hold what
+    // the SLAM spent during it.
+    let timing = &summary.pipeline;
+    assert!(timing.scans > 100 && timing.scans < 1000, "{timing:?}");
+    let whole = timing.slam_parts_s.expect("the grid method's parts");
+    let first = timing.slam_parts_first_1000_s.expect("first window");
+    assert_eq!(timing.slam_parts_last_1000_s, Some(first));
+    assert_eq!(first.tracking_s, whole.tracking_s);
+    assert_eq!(first.closure_searches_s, whole.closure_searches_s);
+    assert_eq!(first.optimization_s, whole.optimization_s);
+    assert!(first.tracking_s > 0.0 && first.finish_s == 0.0, "{first:?}");
 }
 
 #[test]

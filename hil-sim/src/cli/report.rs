@@ -41,6 +41,40 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             parts.finish_s,
         );
     }
+    if let (Some(first), Some(last)) = (
+        &timing.slam_parts_first_1000_s,
+        &timing.slam_parts_last_1000_s,
+    ) {
+        let window = timing
+            .scans
+            .clamp(1, hil_sim::run::host_side::TIMING_WINDOW) as f64;
+        let in_run = |parts: &host::slam::SlamTimings| {
+            [
+                parts.tracking_s,
+                parts.closure_candidates_s,
+                parts.closure_searches_s,
+                parts.optimization_s,
+                parts.settling_s,
+            ]
+        };
+        let [first, last] = [in_run(first), in_run(last)]
+            .map(|parts| parts.map(|s| format!("{:.2}", s * 1000.0 / window)));
+        eprintln!(
+            "hil-sim: the same per scan over the first 1000 scans and the last 1000, ms: \
+             tracking {} / {}, choosing {} / {}, searching {} / {}, optimising {} / {}, \
+             settling {} / {}",
+            first[0],
+            last[0],
+            first[1],
+            last[1],
+            first[2],
+            last[2],
+            first[3],
+            last[3],
+            first[4],
+            last[4],
+        );
+    }
     if let Some(work) = &timing.slam_work {
         eprintln!(
             "hil-sim: the SLAM's work: {} nodes of {} scans, {} submaps, {} loop-closure \

@@ -8,6 +8,7 @@ use std::collections::VecDeque;
 use std::io;
 
 use host::link::{LinkSession, SensorEvent};
+use host::slam::SlamTimings;
 use protocol::{GpsFixMsg, MeasuringMode, Message, ScanMsg, StatusMsg};
 
 use super::estimator::Estimator;
@@ -73,7 +74,16 @@ pub struct HostSide {
     pub bytes_while_unplugged: u64,
     /// Wall time the pipeline took over each scan, in order, microseconds.
     pub scan_step_us: Vec<u32>,
+    /// The grid method's time by part once the first [`TIMING_WINDOW`] scans were handed
+    /// over (or fewer, while there were fewer).
+    pub slam_parts_after_first_scans: Option<SlamTimings>,
+    /// The same after each of the last [`TIMING_WINDOW`] + 1 scans, oldest first: the
+    /// front, subtracted from the back, is the time the last scans took by part.
+    slam_parts_after_last_scans: VecDeque<SlamTimings>,
 }
+
+/// Scans in the first and last windows whose time `performance.json` compares.
+pub const TIMING_WINDOW: usize = 1000;
 
 impl core::fmt::Debug for HostSide {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -86,8 +96,20 @@ impl core::fmt::Debug for HostSide {
 
 impl HostSide {
     /// Where the grid method's SLAM spent its time so far ([`Estimator::slam_timings`]).
-    pub fn slam_timings(&self) -> Option<host::slam::SlamTimings> {
+    pub fn slam_timings(&self) -> Option<SlamTimings> {
         self.estimator.slam_timings()
+    }
+
+    /// Where the grid method's SLAM spent its time over the last [`TIMING_WINDOW`] scans
+    /// (all of them while there were fewer), by part.
+    pub fn slam_timings_of_last_scans(&self) -> Option<SlamTimings> {
+        let last = self.slam_parts_after_last_scans.back()?;
+        let before = if self.scan_step_us.len() > TIMING_WINDOW {
+            *self.slam_parts_after_last_scans.front()?
+        } else {
+            SlamTimings::default()
+        };
+        Some(last.since(&before))
     }
 
     /// What the grid method's SLAM did so far ([`Estimator::slam_stats`]).
@@ -113,6 +135,8 @@ impl HostSide {
             geo_referenced: false,
             bytes_while_unplugged: 0,
             scan_step_us: Vec::new(),
+            slam_parts_after_first_scans: None,
+            slam_parts_after_last_scans: VecDeque::new(),
         }
     }
 
@@ -200,6 +224,15 @@ impl HostSide {
         let step_us = started.elapsed().as_micros();
         self.scan_step_us
             .push(u32::try_from(step_us).unwrap_or(u32::MAX));
+        if let Some(parts) = self.estimator.slam_timings() {
+            if self.scan_step_us.len() <= TIMING_WINDOW {
+                self.slam_parts_after_first_scans = Some(parts);
+            }
+            if self.slam_parts_after_last_scans.len() > TIMING_WINDOW {
+                self.slam_parts_after_last_scans.pop_front();
+            }
+            self.slam_parts_after_last_scans.push_back(parts);
+        }
         self.scans.push(DecodedScan {
             scan_counter: scan.scan_counter,
             values: scan.values.to_vec(),

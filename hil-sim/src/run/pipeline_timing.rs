@@ -36,6 +36,11 @@ pub struct PipelineTiming {
     /// choosing and searching loop closures, optimising, the end of the run); `None` for
     /// the EKF method.
     pub slam_parts_s: Option<SlamTimings>,
+    /// The same over the first 1 000 scans, and over the last 1 000: which part makes a
+    /// scan cost more as the run goes on.
+    pub slam_parts_first_1000_s: Option<SlamTimings>,
+    /// See [`Self::slam_parts_first_1000_s`].
+    pub slam_parts_last_1000_s: Option<SlamTimings>,
     /// What that time was spent on: the grid method's nodes, searches, closures and solves
     /// over the run; `None` for the EKF method. Kept here rather than in `summary.json`, as
     /// under `--qemu` or on `--hardware` the scans the host receives depend on timing.
@@ -58,7 +63,7 @@ impl PipelineTiming {
             let rank = (q * sorted.len() as f64).ceil() as usize;
             ms(f64::from(sorted[rank.clamp(1, sorted.len()) - 1]))
         };
-        let window = step_us.len().min(1000);
+        let window = step_us.len().min(super::host_side::TIMING_WINDOW);
         PipelineTiming {
             scans: step_us.len(),
             mean_ms: mean(step_us),
@@ -70,6 +75,8 @@ impl PipelineTiming {
             last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
             peak_resident_mib: None,
             slam_parts_s: None,
+            slam_parts_first_1000_s: None,
+            slam_parts_last_1000_s: None,
             slam_work: None,
         }
     }

@@ -190,6 +190,8 @@ impl RunSummary {
             pipeline: PipelineTiming {
                 peak_resident_mib: super::pipeline_timing::peak_resident_mib(),
                 slam_parts_s: host.slam_timings(),
+                slam_parts_first_1000_s: host.slam_parts_after_first_scans,
+                slam_parts_last_1000_s: host.slam_timings_of_last_scans(),
                 slam_work: host.slam_stats(),
                 ..PipelineTiming::from_step_times(&host.scan_step_us)
             },

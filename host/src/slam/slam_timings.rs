@@ -30,6 +30,21 @@ pub struct SlamTimings {
     pub finish_s: f64,
 }
 
+impl SlamTimings {
+    /// The time spent since `earlier`, a snapshot of the same run: part by part, what
+    /// `self` adds to it.
+    pub fn since(&self, earlier: &SlamTimings) -> SlamTimings {
+        SlamTimings {
+            tracking_s: self.tracking_s - earlier.tracking_s,
+            closure_candidates_s: self.closure_candidates_s - earlier.closure_candidates_s,
+            closure_searches_s: self.closure_searches_s - earlier.closure_searches_s,
+            optimization_s: self.optimization_s - earlier.optimization_s,
+            settling_s: self.settling_s - earlier.settling_s,
+            finish_s: self.finish_s - earlier.finish_s,
+        }
+    }
+}
+
 /// Seconds since `start`.
 pub(super) fn seconds_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64()
