@@ -63,8 +63,9 @@ pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Mat
 
 /// The covariance of the pose of `source` relative to `target` alone: what
 /// [`relative_covariances`] gives for `target`, to the same bits. The walk stops once it
-/// reaches `target`, so it covers only the nodes more certain than it: for a target near the
-/// source, a few, however large the graph.
+/// reaches `target`, so it walks only the nodes more certain than it: for a target near the
+/// source, a few, however large the graph. Gathering the graph's edges for the walk is still
+/// one pass over them.
 pub fn relative_covariance(
     graph: &PoseGraph,
     source: NodeId,

@@ -591,7 +591,10 @@ impl GraphSlam {
     /// within the chain search's distance, and at least its scans apart before `node`.
     fn nearest_earlier_node(&self, node: usize, pose_in_map: Pose2) -> Option<usize> {
         let search = &self.options.chain_closure.search;
-        let last = node.checked_sub(search.min_scans_apart)?;
+        // Only nodes whose scans are kept: the scan of `node` is kept once it is added.
+        let last = node
+            .checked_sub(search.min_scans_apart)?
+            .min(self.scans.len().checked_sub(1)?);
         self.node_index.nearest(
             [pose_in_map.x_m, pose_in_map.y_m],
             search.max_distance_m,

@@ -139,7 +139,8 @@ pub fn points_with_normals(scan: &Scan, options: &PointMapOptions) -> Vec<([f64;
     let mut out = Vec::with_capacity(points.len());
     // One buffer for every beam's neighbours: a scan has hundreds of beams, and an
     // allocation for each, over a run of hours, leaves the allocator ever slower.
-    let mut neighbours: Vec<[f64; 2]> = Vec::with_capacity(2 * options.normal_beams + 1);
+    let window = options.normal_beams.saturating_mul(2).saturating_add(1);
+    let mut neighbours: Vec<[f64; 2]> = Vec::with_capacity(window.min(points.len()));
     for (index, point) in points.iter().enumerate() {
         let Some(center) = *point else { continue };
         let range_m = center[0].hypot(center[1]);
