@@ -2,10 +2,12 @@
 
 use std::time::Instant;
 
+use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use super::chain_closer::{ChainCloser, ChainContext};
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
+use super::closure_gain::closure_gain_nats;
 use super::degeneracy::{closure_information, consecutive_information};
 use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
@@ -57,6 +59,9 @@ pub struct SlamStats {
     pub chain_closure_searches: usize,
     /// Of the loop-closure constraints, those found in a chain of earlier scans.
     pub chain_closures: usize,
+    /// Loop-closure searches (in a submap or a chain) not run: a closure there would have
+    /// told the graph too little ([`SlamOptions::min_closure_gain_nats`]).
+    pub closure_searches_skipped: usize,
     /// Loop closures that the graph held far from where they put the scan, yet within the
     /// uncertainty of the scan's pose relative to the submap: each was solved once without
     /// the robust kernel, which would have switched it off before it could pull
@@ -286,15 +291,32 @@ impl GraphSlam {
         let every = self.options.loop_closure.every_n_scans.max(1);
         if self.options.loop_closure.enabled {
             let searched = node.is_multiple_of(every);
+            // How uncertain the scan's pose is relative to every node: what a closure there
+            // would tell, and how far the wide search must reach.
+            let started = Instant::now();
+            let needed =
+                self.options.min_closure_gain_nats > 0.0 || self.options.uncertain_closure.enabled;
+            let covariances = if searched && needed {
+                relative_covariances(&self.graph, NodeId(node))
+            } else {
+                Vec::new()
+            };
+            self.timings.closure_candidates_s += seconds_since(started);
             let (taken, beyond_window) = if searched {
-                self.close_loops(node, &scan, pose_in_map)
+                self.close_loops(node, &scan, pose_in_map, &covariances)
             } else {
                 (false, Vec::new())
             };
-            // Every scan is searched while a chain closure waits for its confirmation.
-            let due = searched || self.chains.awaits_confirmation(node);
-            if self.options.chain_closure.enabled && due && !taken {
-                self.close_loops_in_chain(node, &scan, pose_in_map);
+            // Every scan is searched while a chain closure waits for its confirmation,
+            // whatever it would tell.
+            let awaited = self.chains.awaits_confirmation(node);
+            if self.options.chain_closure.enabled && (searched || awaited) && !taken {
+                let covariances = if awaited {
+                    None
+                } else {
+                    Some(&covariances[..])
+                };
+                self.close_loops_in_chain(node, &scan, pose_in_map, covariances);
             }
             if self.options.uncertain_closure.enabled && !taken {
                 self.close_loops_beyond_window(node, &scan, beyond_window);
@@ -437,16 +459,9 @@ impl GraphSlam {
         node: usize,
         scan: &Scan,
         pose_in_map: Pose2,
+        covariances: &[Option<Matrix3<f64>>],
     ) -> (bool, Vec<SubmapGuess>) {
         let options = self.closer.options().clone();
-        // Only the wide search reads how far the pose's uncertainty reaches.
-        let started = Instant::now();
-        let covariances = if self.options.uncertain_closure.enabled {
-            relative_covariances(&self.graph, NodeId(node))
-        } else {
-            Vec::new()
-        };
-        self.timings.closure_candidates_s += seconds_since(started);
         let mut near: Vec<SubmapGuess> = Vec::new();
         let mut beyond_window: Vec<SubmapGuess> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
@@ -463,10 +478,14 @@ impl GraphSlam {
             };
             let guess_in_submap = submap_in_map.inverse() * pose_in_map;
             let distance_m = guess_in_submap.x_m.hypot(guess_in_submap.y_m);
-            let [reach_m, reach_rad] = covariances
-                .get(submap.first_node())
-                .copied()
-                .flatten()
+            let covariance = covariances.get(submap.first_node()).copied().flatten();
+            if !self.is_informative(covariance.as_ref()) {
+                self.stats.closure_searches_skipped += 1;
+                continue;
+            }
+            // Only the wide search reads how far the pose's uncertainty reaches.
+            let [reach_m, reach_rad] = covariance
+                .filter(|_| self.options.uncertain_closure.enabled)
                 .map_or([0.0; 2], |covariance| {
                     reach(&covariance, options.gate_sigmas)
                 });
@@ -562,15 +581,48 @@ impl GraphSlam {
         true
     }
 
-    /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed.
-    fn close_loops_in_chain(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
+    /// Whether a closure on a place the scan's pose is held relative to with `covariance`
+    /// (`None`: not known) would tell the graph enough to search for it
+    /// ([`SlamOptions::min_closure_gain_nats`](super::SlamOptions::min_closure_gain_nats)).
+    fn is_informative(&self, covariance: Option<&Matrix3<f64>>) -> bool {
+        let Some(relative) = covariance else {
+            return true;
+        };
+        let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
+        let closure = Matrix3::from_diagonal(&Vector3::new(
+            sigma_m * sigma_m,
+            sigma_m * sigma_m,
+            sigma_rad * sigma_rad,
+        ));
+        closure_gain_nats(relative, &closure) >= self.options.min_closure_gain_nats
+    }
+
+    /// Searches the scan of `node` in a chain of earlier scans and adds what is confirmed;
+    /// not when a closure on the chain's centre would tell the graph too little, by the
+    /// scan's `covariances` relative to every node (`None`: the scan is searched because a
+    /// closure waits for its confirmation).
+    fn close_loops_in_chain(
+        &mut self,
+        node: usize,
+        scan: &Scan,
+        pose_in_map: Pose2,
+        covariances: Option<&[Option<Matrix3<f64>>]>,
+    ) {
+        let nearest_earlier = self.nearest_earlier_node(node, pose_in_map);
+        if let Some(covariances) = covariances {
+            let covariance = nearest_earlier.and_then(|n| covariances.get(n).copied().flatten());
+            if !self.is_informative(covariance.as_ref()) {
+                self.stats.closure_searches_skipped += 1;
+                return;
+            }
+        }
         let confirmed = self.chains.close(
             node,
             scan,
             pose_in_map,
             &ChainContext {
                 nodes: self.graph.nodes(),
-                nearest_earlier: self.nearest_earlier_node(node, pose_in_map),
+                nearest_earlier,
                 poses_in_local: &self.poses_in_local,
                 scans: &self.scans,
                 optimizations: self.stats.optimizations,
@@ -947,6 +999,44 @@ mod tests {
             })
             .fold(0.0, f64::max);
         assert!(worst_m < 0.10, "worst position error {worst_m} m");
+    }
+
+    /// The worst position error of a finished run against `truth`, in the first pose's frame.
+    fn worst_error_m(slam: GraphSlam, truth: &[Pose2]) -> f64 {
+        let origin = truth[0].inverse();
+        slam.finish()
+            .poses_in_map
+            .iter()
+            .zip(truth)
+            .map(|(estimate, truth)| {
+                let error = (origin * *truth).inverse() * *estimate;
+                error.x_m.hypot(error.y_m)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn places_the_pose_is_tied_to_already_are_searched_only_as_its_uncertainty_grows() {
+        let (tied, truth) = four_laps(SlamOptions::default());
+        let (every, _) = four_laps(SlamOptions {
+            min_closure_gain_nats: 0.0,
+            ..SlamOptions::default()
+        });
+        let (tied_stats, every_stats) = (tied.stats(), every.stats());
+        let searches = |s: &SlamStats| s.loop_closure_searches + s.chain_closure_searches;
+        assert_eq!(every_stats.closure_searches_skipped, 0, "{every_stats:?}");
+        assert!(tied_stats.closure_searches_skipped > 0, "{tied_stats:?}");
+        // Later laps are still closed, with fewer searches.
+        assert!(tied_stats.loop_closures > 20, "{tied_stats:?}");
+        assert!(
+            searches(&tied_stats) * 3 < searches(&every_stats) * 2,
+            "{tied_stats:?} against {every_stats:?}"
+        );
+        let (tied_m, every_m) = (worst_error_m(tied, &truth), worst_error_m(every, &truth));
+        assert!(
+            tied_m < 0.10,
+            "worst position error {tied_m} m ({every_m} m)"
+        );
     }
 
     /// A SLAM fed 1.1 laps of the ring but the last scan, the poses of every scan, and that

@@ -41,6 +41,7 @@
 
 mod chain_closer;
 pub mod closure_confirmation;
+pub mod closure_gain;
 pub mod degeneracy;
 pub mod final_refinement;
 mod graph_slam;

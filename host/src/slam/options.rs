@@ -70,6 +70,18 @@ pub struct SlamOptions {
     /// settling its submap ([`super::settled_submaps`]). With the default kernel one closure adds at most `Φ` (10) however
     /// far off it is, so one alone triggers a solve only when `Φ` exceeds this value.
     pub solve_above_chi2: f64,
+    /// A loop-closure search (in a finished submap or in a chain of earlier scans) runs only
+    /// where a closure would tell the graph at least this much, nats: the mutual information
+    /// between the closure and the scan's pose relative to the place, from the graph's
+    /// covariance of that relative pose and a closure's own
+    /// ([`super::closure_gain`]). Right after a closure to a place the robot's pose relative
+    /// to it is about as certain as another closure would make it, and searching there again
+    /// is wasted; the scans tracked since make it less certain, until a search is worth its
+    /// cost again. The default, 4 nats, asks for a relative pose about 14 times as uncertain
+    /// as a closure in variance along each of its three directions (3.8 times the standard
+    /// deviation). A scan searched because a chain closure waits for its confirmation is
+    /// searched whatever it would tell. 0 searches every candidate.
+    pub min_closure_gain_nats: f64,
 }
 
 impl SlamOptions {
@@ -130,6 +142,7 @@ impl Default for SlamOptions {
             loop_closure_kernel: RobustKernel::Dcs { phi: 10.0 },
             optimize: OptimizeOptions::default(),
             solve_above_chi2: 7.81,
+            min_closure_gain_nats: 4.0,
         }
     }
 }
