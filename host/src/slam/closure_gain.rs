@@ -17,10 +17,10 @@ use nalgebra::Matrix3;
 
 /// The information (nats) a closure with covariance `closure` adds about a relative pose the
 /// graph holds with covariance `relative` (both x, y, theta in the same frame); infinite when
-/// the closure's covariance is singular, so such a closure is always worth a search.
+/// either covariance is singular or not finite, so such a closure is always worth a search.
 pub fn closure_gain_nats(relative: &Matrix3<f64>, closure: &Matrix3<f64>) -> f64 {
     let (combined, own) = ((relative + closure).determinant(), closure.determinant());
-    if own <= 0.0 || !own.is_finite() || !combined.is_finite() {
+    if own <= 0.0 || combined <= 0.0 || !own.is_finite() || !combined.is_finite() {
         return f64::INFINITY;
     }
     0.5 * (combined / own).ln()

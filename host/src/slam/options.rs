@@ -77,10 +77,11 @@ pub struct SlamOptions {
     /// ([`super::closure_gain`]). Right after a closure to a place the robot's pose relative
     /// to it is about as certain as another closure would make it, and searching there again
     /// is wasted; the scans tracked since make it less certain, until a search is worth its
-    /// cost again. The default, 4 nats, asks for a relative pose about 14 times as uncertain
-    /// as a closure in variance along each of its three directions (3.8 times the standard
-    /// deviation). A scan searched because a chain closure waits for its confirmation is
-    /// searched whatever it would tell. 0 searches every candidate.
+    /// cost again. The default, 4 nats, asks for a closure that would shrink the relative
+    /// pose's variance about 14-fold along each of its three directions, were they equally
+    /// uncertain. A pose uncertain beyond the search window, and a scan searched because a
+    /// chain closure waits for its confirmation, are searched whatever the gain. 0 searches
+    /// every candidate.
     pub min_closure_gain_nats: f64,
 }
 

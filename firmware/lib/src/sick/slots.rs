@@ -34,7 +34,10 @@
 //! grid back to it would shift every later slot by one. So a telegram moves the grid only
 //! once the next one is accepted, which bounds its start: the sensor sent the next one at
 //! least a period later, and it was not read early either. The grid follows the earlier of
-//! the two bounds, the start read and the next one's less a period.
+//! the two bounds, the start read and the next one's less a period; it moves back by more
+//! than `(P − A)/4` only on the next one's bound, since a run of telegrams read equally late
+//! looks the same as a grid anchored late. (A run read more than `P/2` late and then on time
+//! is counted right; a run that stays that late holds the count high while it lasts.)
 //!
 //! The scans missed among accepted telegrams are the slots they span less their number. As a
 //! start is never read early, each one's slot is its true slot or a later one; so the
@@ -81,7 +84,7 @@ pub struct ScanSlots {
     /// The current session's timing, `None` when not streaming.
     timing: Option<Timing>,
     /// A time on the grid, ns: the first byte heard, then the first accepted telegram's
-    /// start, then each start read on time or before the grid point. `None` before the first
+    /// start, then the starts the grid follows ([`Self::follow`]). `None` before the first
     /// byte of a session or after a break.
     anchor_ns: Option<u64>,
     /// The slot `anchor_ns` lies in; the grid's first byte lies in slot 0.
@@ -244,8 +247,8 @@ impl ScanSlots {
         if let Some(held_ns) = self.held_start_ns.take() {
             // The previous telegram began at least a period before this one, which was not
             // read early either.
-            let bound_ns = held_ns.min(start_ns.saturating_sub(timing.period_ns));
-            self.follow(timing, bound_ns);
+            let next_bound_ns = start_ns.saturating_sub(timing.period_ns);
+            self.follow(timing, held_ns.min(next_bound_ns), next_bound_ns < held_ns);
         }
         let anchor_ns = *self.anchor_ns.get_or_insert(start_ns);
         let nearest = timing.nearest(anchor_ns, start_ns);
@@ -263,10 +266,12 @@ impl ScanSlots {
     }
 
     /// Moves the grid to a telegram's start, `start_ns` (read, or bounded by the next
-    /// telegram), when it lies at most `(P − A)/4` after its grid point, following the
-    /// sensor's clock. A start before its grid point shows the grid was anchored late (starts
-    /// are never read early): it moves the grid back.
-    fn follow(&mut self, timing: Timing, start_ns: u64) {
+    /// telegram: `bounded`), when it lies at most `(P − A)/4` after its grid point, following
+    /// the sensor's clock. A start before its grid point shows the grid was anchored late
+    /// (starts are never read early) and moves it back: by up to `(P − A)/4` as read, by
+    /// more only when the next telegram bounded it, as two telegrams read equally late look
+    /// alike.
+    fn follow(&mut self, timing: Timing, start_ns: u64, bounded: bool) {
         let Some(anchor_ns) = self.anchor_ns else {
             return;
         };
@@ -274,7 +279,8 @@ impl ScanSlots {
         let on_grid_ns =
             signed(anchor_ns).saturating_add(nearest.saturating_mul(signed(timing.period_ns)));
         let late_ns = signed(start_ns).saturating_sub(on_grid_ns);
-        if late_ns <= signed(timing.lead_ns() / 2) {
+        let tolerance_ns = signed(timing.lead_ns() / 2);
+        if late_ns <= tolerance_ns && (bounded || late_ns >= -tolerance_ns) {
             self.anchor_ns = Some(start_ns);
             self.anchor_slot = self.anchor_slot.saturating_add(nearest);
         }
@@ -661,11 +667,42 @@ mod tests {
             }
         }
         assert_eq!(slots.missed(), 0);
+        // Two in a row read that late, then a steady lag of 1.5 ms.
+        for k in 200..203 {
+            let start_us = 5_000 + k * PERIOD_US;
+            let last_us =
+                read_in_one_burst(&mut slots, start_us + AIRTIME_US + 14_000, 732, CHAR_US);
+            slots.on_scan(last_us);
+        }
+        for k in 203..230 {
+            telegram(&mut slots, 5_000 + k * PERIOD_US + 1_500);
+        }
+        assert_eq!(slots.missed(), 0);
         // One lost whole after them still counts, once.
-        for k in 201..260 {
+        for k in 231..260 {
             telegram(&mut slots, 5_000 + k * PERIOD_US + lag_us(k));
         }
         assert_eq!(slots.missed(), 1);
+    }
+
+    #[test]
+    fn two_telegrams_read_just_over_half_a_period_late_do_not_shift_the_grid() {
+        // 500 kBd: on time, then two telegrams each read 14 ms after its end, then every one
+        // read 1.5 ms late. The second of the two bounds the first no better than it was
+        // read: the grid must not move back to it.
+        let mut slots = streaming();
+        for k in 0..9 {
+            telegram(&mut slots, k * PERIOD_US);
+        }
+        for k in 9..11 {
+            let read_us = k * PERIOD_US + AIRTIME_US + 14_000;
+            let last_us = read_in_one_burst(&mut slots, read_us, 732, CHAR_US);
+            slots.on_scan(last_us);
+        }
+        for k in 11..40 {
+            telegram(&mut slots, k * PERIOD_US + 1_500);
+        }
+        assert_eq!(slots.missed(), 0);
     }
 
     #[test]
