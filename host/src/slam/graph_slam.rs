@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 use serde::Serialize;
 
 use super::chain_closer::{ChainCloser, ChainContext};
@@ -592,11 +592,11 @@ impl GraphSlam {
             return true;
         };
         let [sigma_m, sigma_rad] = self.options.loop_closure_sigma;
-        let closure = Matrix3::from_diagonal(&Vector3::new(
-            sigma_m * sigma_m,
-            sigma_m * sigma_m,
-            sigma_rad * sigma_rad,
-        ));
+        let Some(closure) =
+            Edge::information_from_std_devs(sigma_m, sigma_m, sigma_rad).try_inverse()
+        else {
+            return true;
+        };
         closure_gain_nats(relative, &closure) >= self.options.min_closure_gain_nats
     }
 
