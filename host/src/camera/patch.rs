@@ -121,6 +121,103 @@ fn normalise(mut values: Vec<f32>) -> Option<Vec<f32>> {
     Some(values)
 }
 
+/// Positions scored together: the correlation of one template with eight neighbouring
+/// image windows, each lane summing its products in the order [`Patch::correlation`] does, so
+/// every score is the same to the bit while the compiler runs the lanes side by side.
+const LANES: usize = 8;
+
+/// The best integer position and score of `patch` among the pixels `inside` admits within
+/// `box_px` where the patch fits in the image; the first in row-major order on a tie.
+fn best_in_box(
+    patch: &Patch,
+    image: &GrayImage,
+    box_px: [[i64; 2]; 2],
+    inside: &impl Fn([i64; 2]) -> bool,
+) -> Option<([i64; 2], f32)> {
+    let half = i64::from(patch.half_px);
+    let side = (2 * half + 1) as usize;
+    let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+    let [min, max] = box_px;
+    let (x0, x1) = (min[0].max(half), max[0].min(width - 1 - half));
+    let (y0, y1) = (min[1].max(half), max[1].min(height - 1 - half));
+    if x0 > x1 || y0 > y1 {
+        return None;
+    }
+    let columns = (x1 - x0 + 1) as usize;
+    // The box's pixels with the patch's margin, as f32, each row padded for the last block.
+    let span = columns + side - 1 + LANES;
+    let rows = (y1 - y0) as usize + side;
+    let mut strip = vec![0f32; rows * span];
+    // Running sums of the pixels and their squares over the strip, with a zero row and
+    // column first: a window's sums from four entries. Integers, so exact; and below 2^24,
+    // so the same to the bit as summing the window's pixels in f32 one by one.
+    let mut sums = vec![0u64; (rows + 1) * (span + 1)];
+    let mut squares = vec![0u64; (rows + 1) * (span + 1)];
+    let raw = image.as_raw();
+    for (r, row) in strip.chunks_exact_mut(span).enumerate() {
+        let start = ((y0 - half + r as i64) * width + x0 - half) as usize;
+        let (mut row_sum, mut row_squares) = (0u64, 0u64);
+        for (c, (out, &v)) in row
+            .iter_mut()
+            .zip(&raw[start..start + columns + side - 1])
+            .enumerate()
+        {
+            *out = f32::from(v);
+            row_sum += u64::from(v);
+            row_squares += u64::from(v) * u64::from(v);
+            let at = (r + 1) * (span + 1) + c + 1;
+            sums[at] = sums[at - span - 1] + row_sum;
+            squares[at] = squares[at - span - 1] + row_squares;
+        }
+    }
+    let window = |table: &[u64], top: usize, left: usize| -> f32 {
+        let (bottom, right) = (top + side, left + side);
+        let at = |r: usize, c: usize| table[r * (span + 1) + c];
+        (at(bottom, right) + at(top, left) - at(top, right) - at(bottom, left)) as f32
+    };
+    let n = patch.values.len() as f32;
+    let mut best: Option<([i64; 2], f32)> = None;
+    for y in y0..=y1 {
+        let top = (y - y0) as usize;
+        for block in (0..columns).step_by(LANES) {
+            let mut wanted = [false; LANES];
+            for (k, w) in wanted.iter_mut().enumerate() {
+                *w = block + k < columns && inside([x0 + (block + k) as i64, y]);
+            }
+            if !wanted.contains(&true) {
+                continue;
+            }
+            let mut product = [0f32; LANES];
+            for (r, template_row) in patch.values.chunks_exact(side).enumerate() {
+                let row = &strip[(top + r) * span + block..];
+                for (j, &t) in template_row.iter().enumerate() {
+                    let v = &row[j..j + LANES];
+                    for k in 0..LANES {
+                        product[k] += t * v[k];
+                    }
+                }
+            }
+            for k in 0..LANES {
+                if !wanted[k] {
+                    continue;
+                }
+                let sum = window(&sums, top, block + k);
+                let spread = (window(&squares, top, block + k) - sum * sum / n)
+                    .max(0.0)
+                    .sqrt();
+                if spread < n.sqrt() {
+                    continue;
+                }
+                let score = product[k] / spread;
+                if best.is_none_or(|(_, b)| score > b) {
+                    best = Some(([x0 + (block + k) as i64, y], score));
+                }
+            }
+        }
+    }
+    best
+}
+
 /// The best match of `patch` among the pixels `inside` admits within `box_px` (inclusive
 /// min and max corners), refined to a fraction of a pixel, with its correlation.
 pub fn search(
@@ -129,20 +226,7 @@ pub fn search(
     box_px: [[i64; 2]; 2],
     inside: impl Fn([i64; 2]) -> bool,
 ) -> Option<([f64; 2], f32)> {
-    let [min, max] = box_px;
-    let mut best: Option<([i64; 2], f32)> = None;
-    for y in min[1]..=max[1] {
-        for x in min[0]..=max[0] {
-            if !inside([x, y]) {
-                continue;
-            }
-            if let Some(score) = patch.correlation(image, [x, y])
-                && best.is_none_or(|(_, b)| score > b)
-            {
-                best = Some(([x, y], score));
-            }
-        }
-    }
+    let best = best_in_box(patch, image, box_px, &inside);
     let (at, score) = best?;
     // A parabola through the neighbours on each axis.
     let offset = |before: Option<f32>, after: Option<f32>| match (before, after) {
@@ -192,6 +276,61 @@ mod tests {
         assert!(
             (found[0] - 43.0).abs() < 0.3 && (found[1] - 28.0).abs() < 0.3,
             "{found:?}"
+        );
+    }
+
+    /// Every pixel of the box scored one at a time by [`Patch::correlation`].
+    fn best_one_at_a_time(
+        patch: &Patch,
+        image: &GrayImage,
+        box_px: [[i64; 2]; 2],
+        inside: impl Fn([i64; 2]) -> bool,
+    ) -> Option<([i64; 2], f32)> {
+        let mut best: Option<([i64; 2], f32)> = None;
+        for y in box_px[0][1]..=box_px[1][1] {
+            for x in box_px[0][0]..=box_px[1][0] {
+                if !inside([x, y]) {
+                    continue;
+                }
+                if let Some(score) = patch.correlation(image, [x, y])
+                    && best.is_none_or(|(_, b)| score > b)
+                {
+                    best = Some(([x, y], score));
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn the_search_scores_every_pixel_exactly_as_one_correlation_does() {
+        let first = textured(120, 90, [0.0, 0.0]);
+        let moved = textured(120, 90, [2.6, -1.3]);
+        let ellipse = |c: [i64; 2]| {
+            move |p: [i64; 2]| {
+                let (dx, dy) = ((p[0] - c[0]) as f64, (p[1] - c[1]) as f64);
+                (dx + 0.5 * dy).powi(2) / 400.0 + dy * dy / 16.0 <= 1.0
+            }
+        };
+        for (centre, box_px) in [
+            ([60, 45], [[40, 30], [80, 60]]),
+            ([10, 10], [[-20, -20], [30, 25]]),
+            ([110, 80], [[90, 70], [140, 120]]),
+            ([60, 45], [[59, 44], [61, 46]]),
+        ] {
+            let patch = Patch::from_image(&first, centre, 5).expect("textured");
+            for inside in [&ellipse(centre) as &dyn Fn([i64; 2]) -> bool, &|_| true] {
+                assert_eq!(
+                    best_in_box(&patch, &moved, box_px, &inside),
+                    best_one_at_a_time(&patch, &moved, box_px, inside),
+                    "{centre:?} {box_px:?}"
+                );
+            }
+        }
+        let patch = Patch::from_image(&first, [60, 45], 5).expect("textured");
+        assert_eq!(
+            best_in_box(&patch, &moved, [[200, 200], [210, 210]], &|_| true),
+            None
         );
     }
 
