@@ -67,8 +67,12 @@ const MAX_STEP_US: u64 = 10_000;
 const WALL_POLL_US: u64 = QUANTUM_US;
 /// Time-sync pings, one every this many µs.
 const PING_PERIOD_US: u64 = 1_000_000;
-/// After the sensors stop: how long the firmware and host drain, µs.
+/// After the sensors stop: how long the firmware and host drain, µs. On the wall clock a board
+/// that runs late is still sending then, so the drain goes on while the host hears scans or
+/// fixes, each time for this long again, up to [`MAX_WALL_DRAIN_US`].
 const DRAIN_US: u64 = 200_000;
+/// The longest drain on the wall clock, µs.
+const MAX_WALL_DRAIN_US: u64 = 10 * DRAIN_US;
 /// How long to wait for the final status report, µs.
 const STATUS_WAIT_US: u64 = 500_000;
 /// How long an unplugged host link stays unplugged, µs.
@@ -335,8 +339,17 @@ pub struct Engine<'c, W: World> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Running,
-    Draining { until_us: u64 },
-    AwaitingStatus { asked_us: u64 },
+    Draining {
+        /// When the drain ends, unless the host still hears from the board.
+        until_us: u64,
+        /// When it started.
+        from_us: u64,
+        /// Scans and fixes the host had decoded at the last look.
+        heard: usize,
+    },
+    AwaitingStatus {
+        asked_us: u64,
+    },
 }
 
 impl<'c, W: World> Engine<'c, W> {
@@ -461,9 +474,22 @@ impl<'c, W: World> Engine<'c, W> {
                 Phase::Running if t_us >= duration_us && self.lines_quiet() => {
                     phase = Phase::Draining {
                         until_us: t_us + DRAIN_US,
+                        from_us: t_us,
+                        heard: self.heard(),
                     };
                 }
-                Phase::Draining { until_us } if t_us >= until_us => {
+                Phase::Draining { from_us, heard, .. }
+                    if matches!(self.wiring, Wiring::Wall)
+                        && self.heard() != heard
+                        && t_us < from_us + MAX_WALL_DRAIN_US =>
+                {
+                    phase = Phase::Draining {
+                        until_us: t_us + DRAIN_US,
+                        from_us,
+                        heard: self.heard(),
+                    };
+                }
+                Phase::Draining { until_us, .. } if t_us >= until_us => {
                     let request = self.host.status_request();
                     self.host_end.write(&request)?;
                     phase = Phase::AwaitingStatus { asked_us: t_us };
@@ -795,6 +821,11 @@ impl<'c, W: World> Engine<'c, W> {
             };
             self.host.scan_sent(SentScan { values, truth });
         }
+    }
+
+    /// Scans and fixes the host has decoded so far.
+    fn heard(&self) -> usize {
+        self.host.records.len() + self.host.fixes.len()
     }
 
     /// Whether the sensors have nothing more on their lines.
