@@ -31,6 +31,24 @@ fn tum_rpy_rotation_is_tracked_against_motion_capture() {
     // The camera turns by up to 90° from its first pose in these frames.
     assert!(error.rotation_error_deg < 8.0, "{error:?}");
     assert!(summary.features_measured_per_frame > 8.0, "{summary:?}");
+    // The hand-held camera turns back to what it saw: the history memory recognises earlier
+    // local maps and tracks their features again, where without it new ones are started.
+    assert!(summary.places_recognised >= 3, "{summary:?}");
+    assert!(summary.features_recalled >= 20, "{summary:?}");
+    let mut forgetful = options.clone();
+    forgetful.out = options.out.join("without-history");
+    forgetful.slam.history.enabled = false;
+    let without = replay_camera(&forgetful).expect("replay without the history memory");
+    assert_eq!(
+        (without.places_recognised, without.features_recalled),
+        (0, 0)
+    );
+    assert!(
+        summary.features_added < without.features_added,
+        "with the history memory {} new features, without {}",
+        summary.features_added,
+        without.features_added
+    );
     let trajectory =
         std::fs::read_to_string(options.out.join("trajectory.tum")).expect("trajectory");
     assert_eq!(trajectory.lines().count(), 100);

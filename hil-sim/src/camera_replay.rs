@@ -54,6 +54,12 @@ pub struct CameraReplaySummary {
     pub target_corners: Option<usize>,
     /// Local maps the run made (each at most `max_features` features).
     pub local_maps: usize,
+    /// Places of earlier local maps the history memory recognised, and those it tested and
+    /// refused.
+    pub places_recognised: usize,
+    pub places_refused: usize,
+    /// Features of earlier local maps tracked again.
+    pub features_recalled: usize,
     /// Features in the final map.
     pub map_points: usize,
     /// Against the folder's ground truth, after the best similarity transform.
@@ -212,6 +218,9 @@ pub fn replay_camera(
         corners_rejected_as_moving: stats.corners_rejected_as_moving,
         target_corners: target,
         local_maps: stats.local_maps,
+        places_recognised: stats.places_recognised,
+        places_refused: stats.places_refused,
+        features_recalled: stats.features_recalled,
         map_points: map_points.len(),
         error,
     };

@@ -13,7 +13,8 @@ use super::CliResult;
 /// (`t tx ty tz qx qy qz qw`, the camera in the first frame's camera frame),
 /// OUT/map.ply (the 3D features), OUT/tracks.png (four frames with the features in view and
 /// their 3σ search ellipses, corners found moving in blue) and OUT/summary.json (frames,
-/// speed, features per frame, local maps, features rejected as moving and, with ground truth,
+/// speed, features per frame, local maps, places seen before and recognised, features
+/// rejected as moving and, with ground truth,
 /// the error after the best similarity alignment: a single camera fixes no scale unless a
 /// known target gives it).
 #[derive(Debug, clap::Args)]

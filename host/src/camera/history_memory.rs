@@ -15,14 +15,19 @@
 //!    every rebase between them, each as uncertain as the camera was when its map ended.
 //!    [`CameraHistory`] sums those variances along the chain (per axis, position and
 //!    angle), and the test runs in a filter holding the camera with its pose widened by that
-//!    sum and the candidates with their own covariance
-//!    ([`MonoEkf::camera_only`](super::mono_ekf::MonoEkf::camera_only)). Each candidate is
-//!    searched for in its innovation ellipse there, its patch warped from its first sighting.
+//!    sum ([`MonoEkf::camera_only`](super::mono_ekf::MonoEkf::camera_only)), its heading at
+//!    least to what the search box reaches (a monocular EKF is surer of its heading than it
+//!    is right after a fast turn), and the candidates. The old map is the reference the
+//!    camera is placed against: its features enter with their geometry fixed, all but the
+//!    depth it never measured. Each candidate is searched for in its innovation ellipse
+//!    there, its patch warped from its first sighting.
 //! 3. **Consensus, not coincidence**: one match and one look-alike are easily confused, a
-//!    consistent set is not. 1-point RANSAC over the matches (each hypothesis moves the
-//!    camera, and with it every candidate's prediction) must leave at least
-//!    [`CameraHistoryOptions::min_support`] matches within a pixel distance of where one
-//!    camera pose puts them, else the place is refused and nothing changes.
+//!    consistent set is not. Each match in turn updates the test's filter alone; the matches
+//!    then inside their 99 % innovation gate support it (the gate of a feature whose depth
+//!    the old map never fixed stays long along its epipolar line, where a fixed pixel
+//!    distance would refuse it). The best hypothesis needs at least
+//!    [`CameraHistoryOptions::min_support`] supporters, else the place is refused and
+//!    nothing changes.
 //! 4. **Joining**: the supporters update that filter, which gives the camera's pose as the
 //!    old map sees it. The current local map is moved onto it (its frame in the world is
 //!    corrected, its features unchanged relative to the camera), and the supporters enter the

@@ -5,6 +5,7 @@
 //! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
 //! * [`patch`]: feature patches and their correlation search; [`appearance`]: a feature's
 //!   first sighting, warped to the view of the camera now.
+//! * [`history_memory`]: finished local maps' features, recognised and used again.
 //! * [`known_target`]: a target of known corners that gives a run its scale.
 //! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
 //! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
@@ -12,6 +13,7 @@
 //! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
 
 pub mod appearance;
+pub mod history_memory;
 pub mod known_target;
 pub mod mono_ekf;
 pub mod mono_slam;

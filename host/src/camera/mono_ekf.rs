@@ -149,6 +149,55 @@ fn in_camera(camera: &[f64], kind: FeatureKind, feature: &[f64]) -> Vector3<f64>
     world_from_camera.inverse_transform_vector(&in_world)
 }
 
+/// A feature's best point estimate (an inverse-depth feature at its mean depth), or `None`
+/// for an inverse-depth feature with its depth at infinity.
+pub fn feature_point(kind: FeatureKind, f: &[f64]) -> Option<Vector3<f64>> {
+    match kind {
+        FeatureKind::Euclidean => Some(Vector3::new(f[0], f[1], f[2])),
+        FeatureKind::InverseDepth => {
+            (f[5] > 1e-6).then(|| Vector3::new(f[0], f[1], f[2]) + direction(f[3], f[4]) / f[5])
+        }
+    }
+}
+
+/// A feature's numbers in another frame, `new_from_old` then `translation` (the old frame's
+/// origin in the new one): a point or an anchor moves, a ray's direction turns, an inverse
+/// depth stays.
+pub fn moved_feature(
+    kind: FeatureKind,
+    feature: &[f64],
+    new_from_old: UnitQuaternion<f64>,
+    translation: Vector3<f64>,
+) -> Vec<f64> {
+    let point = new_from_old * Vector3::new(feature[0], feature[1], feature[2]) + translation;
+    let mut out = feature.to_vec();
+    out[..3].copy_from_slice(point.as_slice());
+    if kind == FeatureKind::InverseDepth {
+        let m = new_from_old * direction(feature[3], feature[4]);
+        out[3] = m.x.atan2(m.z);
+        out[4] = (-m.y).atan2(m.x.hypot(m.z));
+    }
+    out
+}
+
+/// A feature moved to another frame as [`moved_feature`] does, with its covariance carried
+/// through the move.
+pub fn moved_feature_with_covariance(
+    kind: FeatureKind,
+    feature: &[f64],
+    covariance: &DMatrix<f64>,
+    new_from_old: UnitQuaternion<f64>,
+    translation: Vector3<f64>,
+) -> (Vec<f64>, DMatrix<f64>) {
+    let moved = moved_feature(kind, feature, new_from_old, translation);
+    let j = jacobian(feature, kind.size(), |f| {
+        Some(moved_feature(kind, f, new_from_old, translation))
+    })
+    .unwrap_or_else(|| DMatrix::identity(kind.size(), kind.size()));
+    let covariance = &j * covariance * j.transpose();
+    (moved, (&covariance + covariance.transpose()) * 0.5)
+}
+
 /// Central-difference Jacobian of `f` at `at` (`rows` outputs).
 fn jacobian(
     at: &[f64],
@@ -232,13 +281,105 @@ impl MonoEkf {
     /// The feature's best point estimate in the world frame (an inverse-depth feature at its
     /// mean depth), or `None` for an inverse-depth feature with its depth at infinity.
     pub fn point_in_world(&self, index: usize) -> Option<Vector3<f64>> {
-        let f = self.feature(index);
-        match self.kinds[index] {
-            FeatureKind::Euclidean => Some(Vector3::new(f[0], f[1], f[2])),
-            FeatureKind::InverseDepth => {
-                (f[5] > 1e-6).then(|| Vector3::new(f[0], f[1], f[2]) + direction(f[3], f[4]) / f[5])
-            }
+        feature_point(self.kinds[index], self.feature(index))
+    }
+
+    /// Feature `index`'s numbers and their marginal covariance.
+    pub fn feature_with_covariance(&self, index: usize) -> (FeatureKind, Vec<f64>, DMatrix<f64>) {
+        let kind = self.kinds[index];
+        let offset = self.offsets[index];
+        let size = kind.size();
+        (
+            kind,
+            self.feature(index).to_vec(),
+            self.p.view((offset, offset), (size, size)).clone_owned(),
+        )
+    }
+
+    /// The pixel a feature with these numbers would be seen at from the current mean, or
+    /// `None` when it lies behind the camera.
+    pub fn pixel_of(&self, kind: FeatureKind, feature: &[f64]) -> Option<[f64; 2]> {
+        self.camera.project(&in_camera(
+            &self.x.as_slice()[..CAMERA_STATE],
+            kind,
+            feature,
+        ))
+    }
+
+    /// A filter holding this one's camera (mean and covariance) and no features, its pose's
+    /// covariance widened by `position_variance_m2` on each axis and by `angle_variance_rad2`
+    /// about each axis: the camera as a map made elsewhere sees it, when the frames between
+    /// them are known only that well.
+    pub fn camera_only(&self, position_variance_m2: f64, angle_variance_rad2: f64) -> MonoEkf {
+        let x = self.x.rows(0, CAMERA_STATE).clone_owned();
+        let mut p = self
+            .p
+            .view((0, 0), (CAMERA_STATE, CAMERA_STATE))
+            .clone_owned();
+        for i in 0..3 {
+            p[(i, i)] += position_variance_m2;
         }
+        // A small rotation δ about the world axes turns q into exp(δ) q.
+        let q = self.orientation();
+        if let Some(j) = jacobian(&[0.0; 3], 4, |d| {
+            let turned = UnitQuaternion::from_scaled_axis(Vector3::new(d[0], d[1], d[2])) * q;
+            Some(vec![turned.w, turned.i, turned.j, turned.k])
+        }) {
+            let widened = &j * j.transpose() * angle_variance_rad2;
+            let mut block = p.view_mut((3, 3), (4, 4));
+            block += widened;
+        }
+        MonoEkf {
+            options: self.options,
+            camera: self.camera,
+            x,
+            p,
+            kinds: Vec::new(),
+            offsets: Vec::new(),
+        }
+    }
+
+    /// The camera's position and orientation variances, each the mean over its three axes
+    /// (m², rad² about the world axes).
+    pub fn pose_variances(&self) -> (f64, f64) {
+        let position = self.p.view((0, 0), (3, 3)).trace() / 3.0;
+        let q = self.orientation();
+        let angle = jacobian(&[q.w, q.i, q.j, q.k], 3, |c| {
+            let turned = quaternion(c) * q.inverse();
+            Some(turned.scaled_axis().as_slice().to_vec())
+        })
+        .map_or(0.0, |j| {
+            (&j * self.p.view((3, 3), (4, 4)) * j.transpose()).trace() / 3.0
+        });
+        (position, angle)
+    }
+
+    /// Adds a feature with these numbers and covariance, uncorrelated with the rest (a
+    /// feature of another map). Returns its index.
+    pub fn add_feature_with(
+        &mut self,
+        kind: FeatureKind,
+        feature: &[f64],
+        covariance: &DMatrix<f64>,
+    ) -> usize {
+        let n = self.x.len();
+        let size = kind.size();
+        let mut x = DVector::zeros(n + size);
+        x.rows_mut(0, n).copy_from(&self.x);
+        x.rows_mut(n, size).copy_from_slice(feature);
+        let mut p = DMatrix::zeros(n + size, n + size);
+        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
+        p.view_mut((n, n), (size, size)).copy_from(covariance);
+        self.x = x;
+        self.p = p;
+        self.kinds.push(kind);
+        self.offsets.push(n);
+        self.kinds.len() - 1
+    }
+
+    /// The camera's pose: position and `world_from_camera`.
+    pub fn pose(&self) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        (self.position_m(), self.orientation())
     }
 
     /// Propagates the camera by constant velocity over `dt_s`.
@@ -427,20 +568,8 @@ impl MonoEkf {
     /// coordinate with standard deviation `sigma_m`: a known target's corner. Returns its
     /// index.
     pub fn add_known_point(&mut self, position_m: Vector3<f64>, sigma_m: f64) -> usize {
-        let n = self.x.len();
-        let mut x = DVector::zeros(n + 3);
-        x.rows_mut(0, n).copy_from(&self.x);
-        x.rows_mut(n, 3).copy_from(&position_m);
-        let mut p = DMatrix::zeros(n + 3, n + 3);
-        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
-        for i in n..n + 3 {
-            p[(i, i)] = sigma_m * sigma_m;
-        }
-        self.x = x;
-        self.p = p;
-        self.kinds.push(FeatureKind::Euclidean);
-        self.offsets.push(n);
-        self.kinds.len() - 1
+        let covariance = DMatrix::identity(3, 3) * (sigma_m * sigma_m);
+        self.add_feature_with(FeatureKind::Euclidean, position_m.as_slice(), &covariance)
     }
 
     /// Adds a feature first seen at `pixel` from the current camera pose, in inverse depth
@@ -594,21 +723,11 @@ impl MonoEkf {
             out[..7].copy_from_slice(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
             let v = new_from_old * Vector3::new(x[7], x[8], x[9]);
             out[7..10].copy_from_slice(v.as_slice());
+            let translation = -(new_from_old * r);
             for (&kind, &offset) in kinds.iter().zip(&offsets) {
-                let f = &x[offset..offset + kind.size()];
-                match kind {
-                    FeatureKind::Euclidean => {
-                        let p = new_from_old * (Vector3::new(f[0], f[1], f[2]) - r);
-                        out[offset..offset + 3].copy_from_slice(p.as_slice());
-                    }
-                    FeatureKind::InverseDepth => {
-                        let anchor = new_from_old * (Vector3::new(f[0], f[1], f[2]) - r);
-                        let m = new_from_old * direction(f[3], f[4]);
-                        out[offset..offset + 3].copy_from_slice(anchor.as_slice());
-                        out[offset + 3] = m.x.atan2(m.z);
-                        out[offset + 4] = (-m.y).atan2(m.x.hypot(m.z));
-                    }
-                }
+                let range = offset..offset + kind.size();
+                let moved = moved_feature(kind, &x[range.clone()], new_from_old, translation);
+                out[range].copy_from_slice(&moved);
             }
             Some(out)
         };

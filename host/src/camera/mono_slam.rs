@@ -27,11 +27,14 @@
 //! as moving.
 
 use image::GrayImage;
-use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
 use super::appearance::Appearance;
+use super::history_memory::{CameraHistory, CameraHistoryOptions};
 use super::known_target::{KnownTarget, TargetError};
-use super::mono_ekf::{MonoEkf, MonoEkfOptions, Prediction};
+use super::mono_ekf::{
+    FeatureKind, MonoEkf, MonoEkfOptions, Prediction, moved_feature, moved_feature_with_covariance,
+};
 use super::motion_segmentation::{
     self, FrameMotion, MotionSegmentationOptions, PointMotion, classify, distance_from_segment,
 };
@@ -80,6 +83,8 @@ pub struct MonoSlamOptions {
     pub motion_segmentation: MotionSegmentationOptions,
     /// A known target's corners are placed to this standard deviation on each axis, m.
     pub target_sigma_m: f64,
+    /// Places seen before, recognised and their features used again.
+    pub history: CameraHistoryOptions,
 }
 
 impl Default for MonoSlamOptions {
@@ -101,6 +106,7 @@ impl Default for MonoSlamOptions {
             max_off_segment_in_a_row: 3,
             motion_segmentation: MotionSegmentationOptions::default(),
             target_sigma_m: 0.005,
+            history: CameraHistoryOptions::default(),
         }
     }
 }
@@ -116,6 +122,8 @@ struct Track {
     last_match: Option<(usize, [f64; 2])>,
     /// Consecutive frames in which its match left the epipolar segment of the one before.
     off_segment_in_a_row: u32,
+    /// Its record in the history memory, once it has one.
+    history: Option<usize>,
 }
 
 impl Track {
@@ -128,6 +136,7 @@ impl Track {
             last_seen_frame: frame,
             last_match: None,
             off_segment_in_a_row: 0,
+            history: None,
         }
     }
 }
@@ -179,6 +188,12 @@ pub struct MonoSlamStats {
     pub corners_rejected_as_moving: usize,
     /// Local maps started, the first included.
     pub local_maps: usize,
+    /// Places of earlier local maps recognised by the history memory.
+    pub places_recognised: usize,
+    /// Places tested and refused (too few of their features agreed).
+    pub places_refused: usize,
+    /// Features of earlier local maps taken back into the current one.
+    pub features_recalled: usize,
 }
 
 /// The motion tests need a consensus to test against: at least this many matches that
@@ -202,8 +217,8 @@ pub struct MonoSlam {
     stats: MonoSlamStats,
     /// The current local map's frame in the world (the first camera's) frame.
     world_from_local: (Vector3<f64>, UnitQuaternion<f64>),
-    /// The finished local maps' features, world frame.
-    finished_points: Vec<Vector3<f64>>,
+    /// The finished local maps' features.
+    history: CameraHistory,
 }
 
 impl MonoSlam {
@@ -222,7 +237,7 @@ impl MonoSlam {
                 ..MonoSlamStats::default()
             },
             world_from_local: (Vector3::zeros(), UnitQuaternion::identity()),
-            finished_points: Vec::new(),
+            history: CameraHistory::default(),
         }
     }
 
@@ -239,7 +254,8 @@ impl MonoSlam {
     /// The map: every feature with a finite depth, of the finished local maps and the
     /// current one, world frame.
     pub fn map_points(&self) -> Vec<Vector3<f64>> {
-        let mut points = self.finished_points.clone();
+        let tracked: Vec<usize> = self.tracks.iter().filter_map(|t| t.history).collect();
+        let mut points = self.history.points(&tracked);
         points.extend(self.local_points_in_world(0..self.filter.num_features()));
         points
     }
@@ -314,13 +330,25 @@ impl MonoSlam {
                     .is_some_and(|p| camera.contains(p, 0.0))
             })
             .collect();
-        let points: Vec<Vector3<f64>> = self
-            .local_points_in_world(finished.iter().copied())
-            .collect();
-        self.finished_points.extend(points);
+        for &index in &finished {
+            let (kind, feature, covariance) = self.filter.feature_with_covariance(index);
+            let track = &self.tracks[index];
+            let id = self.history.store(
+                track.history,
+                self.world_from_local,
+                kind,
+                &feature,
+                &covariance,
+                track.appearance.clone(),
+                track.found,
+            );
+            self.tracks[index].history = Some(id);
+        }
         for &index in finished.iter().rev() {
             self.remove(index);
         }
+        let (position_variance, angle_variance) = self.filter.pose_variances();
+        self.history.start_map(position_variance, angle_variance);
         let (origin, rotation) = self.filter.rebase();
         let new_from_old = rotation.inverse();
         for track in &mut self.tracks {
@@ -387,6 +415,9 @@ impl MonoSlam {
             && self.tracks.len() + self.options.max_new_per_frame > self.options.max_features
         {
             self.start_local_map();
+        }
+        if wants_features && self.options.history.enabled {
+            self.recall(image);
         }
         let added = if wants_features {
             let tested = motion
@@ -511,58 +542,17 @@ impl MonoSlam {
     /// Returns how many features were searched for, and each match with the prediction it
     /// was searched at (the state has not changed since, so RANSAC reuses it).
     fn search(&mut self, image: &GrayImage) -> (usize, Vec<(Match, Prediction, f32)>) {
-        let margin = f64::from(self.options.patch_half_px);
         let mut searched = 0;
         let mut matches = Vec::new();
         for index in 0..self.filter.num_features() {
-            let Some(prediction) = self.filter.predict_measurement(index) else {
-                continue;
-            };
-            if !self.filter.camera().contains(prediction.pixel, margin) {
-                continue;
+            let appearance = &self.tracks[index].appearance;
+            match active_search(&self.filter, index, appearance, image, &self.options) {
+                Search::NotInView => continue,
+                Search::NotFound => {}
+                Search::Found(found) => matches.push(found),
             }
-            let s = prediction.innovation_covariance;
-            let Some(s_inv) = s.try_inverse() else {
-                continue;
-            };
-            // The ellipse's bounding box, cut to the nearest part of a wide one.
-            let reach = self.options.gate_chi2.sqrt();
-            let cap = self.options.max_search_half_px;
-            let half = [
-                (reach * s[(0, 0)].sqrt()).min(cap),
-                (reach * s[(1, 1)].sqrt()).min(cap),
-            ];
-            let centre = prediction.pixel;
-            let Some(template) = self.tracks[index].appearance.template(
-                self.filter.camera(),
-                self.filter.orientation(),
-                centre,
-                self.options.patch_half_px,
-            ) else {
-                continue;
-            };
             searched += 1;
             self.tracks[index].searched += 1;
-            let box_px = [
-                [
-                    (centre[0] - half[0]).floor() as i64,
-                    (centre[1] - half[1]).floor() as i64,
-                ],
-                [
-                    (centre[0] + half[0]).ceil() as i64,
-                    (centre[1] + half[1]).ceil() as i64,
-                ],
-            ];
-            let gate = self.options.gate_chi2;
-            let inside = |p: [i64; 2]| {
-                let d = Vector2::new(p[0] as f64 - centre[0], p[1] as f64 - centre[1]);
-                (d.transpose() * s_inv * d)[(0, 0)] <= gate
-            };
-            if let Some((pixel, score)) = search(&template, image, box_px, inside)
-                && score >= self.options.min_correlation
-            {
-                matches.push(((index, pixel), prediction, score));
-            }
         }
         (searched, matches)
     }
@@ -570,48 +560,146 @@ impl MonoSlam {
     /// 1-point RANSAC over `matches` (each with its `predictions` entry), the supporters'
     /// update and the rescue. Returns the matches that updated the filter.
     fn measure(&mut self, matches: &[Match], predictions: &[Prediction]) -> Vec<Match> {
-        let support_of = |x: &nalgebra::DVector<f64>| -> Vec<Match> {
-            matches
-                .iter()
-                .filter(|&&(other, seen)| {
-                    self.filter.pixel_in(x, other).is_some_and(|p| {
-                        (p[0] - seen[0]).hypot(p[1] - seen[1]) <= self.options.ransac_inlier_px
-                    })
-                })
-                .copied()
-                .collect()
-        };
-        let mut best_support: Vec<Match> = Vec::new();
-        for (&(index, pixel), prediction) in matches.iter().zip(predictions) {
-            let Some(x) = self.filter.hypothesis(index, prediction, pixel) else {
+        one_point_ransac(&mut self.filter, matches, predictions, &self.options, 2)
+    }
+
+    /// The history memory's step (see [`super::history_memory`]): the place of an earlier
+    /// local map with most features predicted in view is tested, and when enough of them
+    /// agree the current local map is moved onto it and they are tracked again. Returns how
+    /// many features were taken back.
+    fn recall(&mut self, image: &GrayImage) -> usize {
+        let options = self.options.history;
+        let camera = *self.filter.camera();
+        let margin = f64::from(self.options.patch_half_px);
+        let (origin, rotation) = self.world_from_local;
+        let local_from_world = rotation.inverse();
+        let to_local = -(local_from_world * origin);
+        let tracked: Vec<usize> = self.tracks.iter().filter_map(|t| t.history).collect();
+        let tracked_px: Vec<[f64; 2]> = (0..self.filter.num_features())
+            .filter_map(|i| self.filter.pixel(i))
+            .collect();
+        let apart = 2.0 * margin;
+        // Candidates in view, by the local map they were last part of.
+        let mut by_map: Vec<Vec<usize>> = vec![Vec::new(); self.history.current_map()];
+        for (id, stored) in self.history.features().iter().enumerate() {
+            if tracked.contains(&id) || stored.local_map >= by_map.len() {
+                continue;
+            }
+            let local = moved_feature(
+                stored.kind,
+                &stored.feature_in_world,
+                local_from_world,
+                to_local,
+            );
+            let Some(pixel) = self.filter.pixel_of(stored.kind, &local) else {
                 continue;
             };
-            let support = support_of(&x);
-            if support.len() > best_support.len() {
-                best_support = support;
+            if camera.contains(pixel, margin)
+                && tracked_px
+                    .iter()
+                    .all(|t| (t[0] - pixel[0]).hypot(t[1] - pixel[1]) >= apart)
+            {
+                by_map[stored.local_map].push(id);
             }
         }
-        if best_support.len() < 2 || !self.filter.update(&best_support) {
-            return Vec::new();
+        let Some((map, mut candidates)) = by_map
+            .into_iter()
+            .enumerate()
+            .max_by_key(|(_, c)| c.len())
+            .filter(|(_, c)| c.len() >= options.min_support)
+        else {
+            return 0;
+        };
+        let features = self.history.features();
+        candidates.sort_by_key(|&id| std::cmp::Reverse(features[id].found));
+        candidates.truncate(options.max_candidates);
+
+        // The camera as the old map sees it, and the candidates in the current map's frame.
+        // The chain's angle variance is the filter's, which is surer of itself than it is
+        // right after a fast turn, so the camera's heading is widened to what the search box
+        // reaches at least.
+        let (position_variance, chain_angle_variance) = self.history.chain_variances_since(map);
+        let searchable_rad = self.options.max_search_half_px
+            / (self.options.gate_chi2.sqrt() * camera.fx_px.max(camera.fy_px));
+        let angle_variance = chain_angle_variance.max(searchable_rad * searchable_rad);
+        let mut place = self.filter.camera_only(position_variance, angle_variance);
+        let mut appearances = Vec::with_capacity(candidates.len());
+        let mut covariances = Vec::with_capacity(candidates.len());
+        for &id in &candidates {
+            let stored = &features[id];
+            let (local, covariance) = moved_feature_with_covariance(
+                stored.kind,
+                &stored.feature_in_world,
+                &stored.covariance,
+                local_from_world,
+                to_local,
+            );
+            place.add_feature_with(
+                stored.kind,
+                &local,
+                &relative_to_the_map(stored.kind, &covariance),
+            );
+            covariances.push(covariance);
+            let mut appearance = stored.appearance.clone();
+            appearance.change_frame(local_from_world);
+            appearances.push(appearance);
         }
-        let rescued: Vec<Match> = matches
-            .iter()
-            .filter(|m| !best_support.iter().any(|s| s.0 == m.0))
-            .filter(|&&(index, pixel)| {
-                self.filter.predict_measurement(index).is_some_and(|p| {
-                    let nu = Vector2::new(pixel[0] - p.pixel[0], pixel[1] - p.pixel[1]);
-                    p.innovation_covariance.try_inverse().is_some_and(|s_inv| {
-                        (nu.transpose() * s_inv * nu)[(0, 0)] < self.options.rescue_chi2
-                    })
-                })
-            })
-            .copied()
-            .collect();
-        let mut measured = best_support;
-        if !rescued.is_empty() && self.filter.update(&rescued) {
-            measured.extend(rescued);
+        let mut matches = Vec::new();
+        for (index, appearance) in appearances.iter().enumerate() {
+            if let Search::Found((m, _, _)) =
+                active_search(&place, index, appearance, image, &self.options)
+            {
+                matches.push(m);
+            }
         }
-        measured
+        if matches.len() < options.min_support {
+            return 0;
+        }
+        let supported = gated_consensus(
+            &mut place,
+            &matches,
+            self.options.gate_chi2,
+            options.min_support,
+        );
+        if supported.len() < options.min_support {
+            self.stats.places_refused += 1;
+            return 0;
+        }
+
+        // The current map's frame moves so that the camera sits where the old map sees it:
+        // `old_from_new` takes the corrected frame's coordinates to the current ones.
+        let (position_now, orientation_now) = self.filter.pose();
+        let (position_seen, orientation_seen) = place.pose();
+        let old_from_new_rotation = orientation_seen * orientation_now.inverse();
+        let old_from_new_origin = position_seen - old_from_new_rotation * position_now;
+        self.world_from_local = (
+            rotation * old_from_new_origin + origin,
+            rotation * old_from_new_rotation,
+        );
+        let new_from_old = old_from_new_rotation.inverse();
+        let new_from_old_origin = -(new_from_old * old_from_new_origin);
+        let room = self.options.max_features.saturating_sub(self.tracks.len());
+        let mut recalled = 0;
+        for &(index, _) in supported.iter().take(room) {
+            let (kind, feature, _) = place.feature_with_covariance(index);
+            let (feature, covariance) = moved_feature_with_covariance(
+                kind,
+                &feature,
+                &covariances[index],
+                new_from_old,
+                new_from_old_origin,
+            );
+            self.filter.add_feature_with(kind, &feature, &covariance);
+            let mut appearance = appearances[index].clone();
+            appearance.change_frame(new_from_old);
+            let mut track = Track::new(appearance, self.frame);
+            track.history = Some(candidates[index]);
+            self.tracks.push(track);
+            recalled += 1;
+        }
+        self.stats.places_recognised += 1;
+        self.stats.features_recalled += recalled;
+        recalled
     }
 
     /// Deletes features refused as moving, those found in fewer than half of their searches,
@@ -732,6 +820,184 @@ impl MonoSlam {
         }
         added
     }
+}
+
+/// The place test's consensus: each match in turn updates a copy of `filter` alone, and
+/// the matches then within `gate_chi2` of their prediction (by their innovation covariance
+/// after that update, so a feature whose depth the map never fixed keeps its long gate along
+/// its epipolar line) support it. With at least `min_support` supporters, the best
+/// hypothesis's update `filter` together. Returns them (none when the support fell short).
+fn gated_consensus(
+    filter: &mut MonoEkf,
+    matches: &[Match],
+    gate_chi2: f64,
+    min_support: usize,
+) -> Vec<Match> {
+    let mut best: Vec<Match> = Vec::new();
+    for &one in matches {
+        let mut hypothesis = filter.clone();
+        if !hypothesis.update(&[one]) {
+            continue;
+        }
+        let support: Vec<Match> = matches
+            .iter()
+            .filter(|&&(index, seen)| {
+                hypothesis.predict_measurement(index).is_some_and(|p| {
+                    let nu = Vector2::new(seen[0] - p.pixel[0], seen[1] - p.pixel[1]);
+                    p.innovation_covariance
+                        .try_inverse()
+                        .is_some_and(|s_inv| (nu.transpose() * s_inv * nu)[(0, 0)] <= gate_chi2)
+                })
+            })
+            .copied()
+            .collect();
+        if support.len() > best.len() {
+            best = support;
+        }
+    }
+    if best.len() >= min_support.max(2) && filter.update(&best) {
+        best
+    } else {
+        Vec::new()
+    }
+}
+
+/// A stored feature's covariance as the place test uses it: the map's geometry is the
+/// reference the camera is placed against (its uncertainty is mostly its frame's, shared by
+/// every feature of the map and carried by the camera's widened pose), so only what the map
+/// never measured stays uncertain: an inverse-depth feature's depth.
+fn relative_to_the_map(kind: FeatureKind, covariance: &DMatrix<f64>) -> DMatrix<f64> {
+    let size = kind.size();
+    let mut relative = DMatrix::identity(size, size) * 1e-10;
+    if kind == FeatureKind::InverseDepth {
+        relative[(5, 5)] = covariance[(5, 5)];
+    }
+    relative
+}
+
+/// What an active search gave.
+enum Search {
+    /// The feature is not predicted in view (or has no template there).
+    NotInView,
+    NotFound,
+    Found((Match, Prediction, f32)),
+}
+
+/// Searches for feature `index` of `filter`, whose first sighting is `appearance`, in its
+/// innovation ellipse at [`MonoSlamOptions::gate_chi2`] cut to
+/// [`MonoSlamOptions::max_search_half_px`], with its patch warped to the camera's view.
+fn active_search(
+    filter: &MonoEkf,
+    index: usize,
+    appearance: &Appearance,
+    image: &GrayImage,
+    options: &MonoSlamOptions,
+) -> Search {
+    let margin = f64::from(options.patch_half_px);
+    let Some(prediction) = filter.predict_measurement(index) else {
+        return Search::NotInView;
+    };
+    if !filter.camera().contains(prediction.pixel, margin) {
+        return Search::NotInView;
+    }
+    let s = prediction.innovation_covariance;
+    let Some(s_inv) = s.try_inverse() else {
+        return Search::NotInView;
+    };
+    // The ellipse's bounding box, cut to the nearest part of a wide one.
+    let reach = options.gate_chi2.sqrt();
+    let cap = options.max_search_half_px;
+    let half = [
+        (reach * s[(0, 0)].sqrt()).min(cap),
+        (reach * s[(1, 1)].sqrt()).min(cap),
+    ];
+    let centre = prediction.pixel;
+    let Some(template) = appearance.template(
+        filter.camera(),
+        filter.orientation(),
+        centre,
+        options.patch_half_px,
+    ) else {
+        return Search::NotInView;
+    };
+    let box_px = [
+        [
+            (centre[0] - half[0]).floor() as i64,
+            (centre[1] - half[1]).floor() as i64,
+        ],
+        [
+            (centre[0] + half[0]).ceil() as i64,
+            (centre[1] + half[1]).ceil() as i64,
+        ],
+    ];
+    let gate = options.gate_chi2;
+    let inside = |p: [i64; 2]| {
+        let d = Vector2::new(p[0] as f64 - centre[0], p[1] as f64 - centre[1]);
+        (d.transpose() * s_inv * d)[(0, 0)] <= gate
+    };
+    match search(&template, image, box_px, inside) {
+        Some((pixel, score)) if score >= options.min_correlation => {
+            Search::Found(((index, pixel), prediction, score))
+        }
+        _ => Search::NotFound,
+    }
+}
+
+/// 1-point RANSAC over `matches` (each with its `predictions` entry): each match in turn
+/// updates the state alone, and the one that brings most matches within
+/// [`MonoSlamOptions::ransac_inlier_px`] of their predictions wins. With at least
+/// `min_support` supporters (and never fewer than two) they update `filter` together, and the
+/// other matches that then fit within [`MonoSlamOptions::rescue_chi2`] are rescued in a second
+/// update. Returns the matches that updated the filter (none when the support fell short).
+fn one_point_ransac(
+    filter: &mut MonoEkf,
+    matches: &[Match],
+    predictions: &[Prediction],
+    options: &MonoSlamOptions,
+    min_support: usize,
+) -> Vec<Match> {
+    let support_of = |x: &nalgebra::DVector<f64>| -> Vec<Match> {
+        matches
+            .iter()
+            .filter(|&&(other, seen)| {
+                filter.pixel_in(x, other).is_some_and(|p| {
+                    (p[0] - seen[0]).hypot(p[1] - seen[1]) <= options.ransac_inlier_px
+                })
+            })
+            .copied()
+            .collect()
+    };
+    let mut best_support: Vec<Match> = Vec::new();
+    for (&(index, pixel), prediction) in matches.iter().zip(predictions) {
+        let Some(x) = filter.hypothesis(index, prediction, pixel) else {
+            continue;
+        };
+        let support = support_of(&x);
+        if support.len() > best_support.len() {
+            best_support = support;
+        }
+    }
+    if best_support.len() < min_support.max(2) || !filter.update(&best_support) {
+        return Vec::new();
+    }
+    let rescued: Vec<Match> = matches
+        .iter()
+        .filter(|m| !best_support.iter().any(|s| s.0 == m.0))
+        .filter(|&&(index, pixel)| {
+            filter.predict_measurement(index).is_some_and(|p| {
+                let nu = Vector2::new(pixel[0] - p.pixel[0], pixel[1] - p.pixel[1]);
+                p.innovation_covariance.try_inverse().is_some_and(|s_inv| {
+                    (nu.transpose() * s_inv * nu)[(0, 0)] < options.rescue_chi2
+                })
+            })
+        })
+        .copied()
+        .collect();
+    let mut measured = best_support;
+    if !rescued.is_empty() && filter.update(&rescued) {
+        measured.extend(rescued);
+    }
+    measured
 }
 
 #[cfg(test)]
