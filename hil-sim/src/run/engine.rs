@@ -484,7 +484,7 @@ impl<'c, W: World> Engine<'c, W> {
                         && t_us < from_us + MAX_WALL_DRAIN_US =>
                 {
                     phase = Phase::Draining {
-                        until_us: t_us + DRAIN_US,
+                        until_us: (t_us + DRAIN_US).min(from_us + MAX_WALL_DRAIN_US),
                         from_us,
                         heard: self.heard(),
                     };

@@ -31,7 +31,8 @@
 //! 4. **Joining**: the supporters update that filter, which gives the camera's pose as the
 //!    old map sees it. The current local map is moved onto it (its frame in the world is
 //!    corrected, its features unchanged relative to the camera), and the supporters enter the
-//!    current local map with their updated covariance, as features tracked from then on.
+//!    current local map with the covariance they were stored with, as features tracked from
+//!    then on.
 //!    When they leave the view again their record is updated, so a place revisited does not
 //!    grow the map.
 //!
@@ -82,7 +83,7 @@ pub struct StoredFeature {
     pub appearance: Appearance,
     /// The local map it was last part of.
     pub local_map: usize,
-    /// Frames it was measured in.
+    /// Frames it was measured in, over every local map it was tracked in.
     pub found: u32,
 }
 
@@ -155,7 +156,11 @@ impl CameraHistory {
         };
         match id.filter(|&id| id < self.features.len()) {
             Some(id) => {
-                self.features[id] = stored;
+                let found_before = self.features[id].found;
+                self.features[id] = StoredFeature {
+                    found: found_before + stored.found,
+                    ..stored
+                };
                 id
             }
             None => {

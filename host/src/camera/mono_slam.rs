@@ -569,6 +569,11 @@ impl MonoSlam {
     /// many features were taken back.
     fn recall(&mut self, image: &GrayImage) -> usize {
         let options = self.options.history;
+        // A place is only worth testing when its supporters would fit in the map.
+        let room = self.options.max_features.saturating_sub(self.tracks.len());
+        if room < options.min_support {
+            return 0;
+        }
         let camera = *self.filter.camera();
         let margin = f64::from(self.options.patch_half_px);
         let (origin, rotation) = self.world_from_local;
@@ -653,6 +658,7 @@ impl MonoSlam {
             }
         }
         if matches.len() < options.min_support {
+            self.stats.places_refused += 1;
             return 0;
         }
         let supported = gated_consensus(
@@ -678,7 +684,6 @@ impl MonoSlam {
         );
         let new_from_old = old_from_new_rotation.inverse();
         let new_from_old_origin = -(new_from_old * old_from_new_origin);
-        let room = self.options.max_features.saturating_sub(self.tracks.len());
         let mut recalled = 0;
         for &(index, _) in supported.iter().take(room) {
             let (kind, feature, _) = place.feature_with_covariance(index);

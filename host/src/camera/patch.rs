@@ -136,6 +136,10 @@ fn best_in_box(
 ) -> Option<([i64; 2], f32)> {
     let half = i64::from(patch.half_px);
     let side = (2 * half + 1) as usize;
+    // Window sums are exact in f32 only below 2^24 (patches up to 15 × 15).
+    if (side * side) as u64 * 255 * 255 >= 1 << 24 {
+        return best_one_at_a_time(patch, image, box_px, inside);
+    }
     let (width, height) = (i64::from(image.width()), i64::from(image.height()));
     let [min, max] = box_px;
     let (x0, x1) = (min[0].max(half), max[0].min(width - 1 - half));
@@ -218,6 +222,30 @@ fn best_in_box(
     best
 }
 
+/// [`best_in_box`] with every pixel of the box scored one at a time by
+/// [`Patch::correlation`].
+fn best_one_at_a_time(
+    patch: &Patch,
+    image: &GrayImage,
+    box_px: [[i64; 2]; 2],
+    inside: &impl Fn([i64; 2]) -> bool,
+) -> Option<([i64; 2], f32)> {
+    let mut best: Option<([i64; 2], f32)> = None;
+    for y in box_px[0][1]..=box_px[1][1] {
+        for x in box_px[0][0]..=box_px[1][0] {
+            if !inside([x, y]) {
+                continue;
+            }
+            if let Some(score) = patch.correlation(image, [x, y])
+                && best.is_none_or(|(_, b)| score > b)
+            {
+                best = Some(([x, y], score));
+            }
+        }
+    }
+    best
+}
+
 /// The best match of `patch` among the pixels `inside` admits within `box_px` (inclusive
 /// min and max corners), refined to a fraction of a pixel, with its correlation.
 pub fn search(
@@ -279,29 +307,6 @@ mod tests {
         );
     }
 
-    /// Every pixel of the box scored one at a time by [`Patch::correlation`].
-    fn best_one_at_a_time(
-        patch: &Patch,
-        image: &GrayImage,
-        box_px: [[i64; 2]; 2],
-        inside: impl Fn([i64; 2]) -> bool,
-    ) -> Option<([i64; 2], f32)> {
-        let mut best: Option<([i64; 2], f32)> = None;
-        for y in box_px[0][1]..=box_px[1][1] {
-            for x in box_px[0][0]..=box_px[1][0] {
-                if !inside([x, y]) {
-                    continue;
-                }
-                if let Some(score) = patch.correlation(image, [x, y])
-                    && best.is_none_or(|(_, b)| score > b)
-                {
-                    best = Some(([x, y], score));
-                }
-            }
-        }
-        best
-    }
-
     #[test]
     fn the_search_scores_every_pixel_exactly_as_one_correlation_does() {
         let first = textured(120, 90, [0.0, 0.0]);
@@ -322,7 +327,7 @@ mod tests {
             for inside in [&ellipse(centre) as &dyn Fn([i64; 2]) -> bool, &|_| true] {
                 assert_eq!(
                     best_in_box(&patch, &moved, box_px, &inside),
-                    best_one_at_a_time(&patch, &moved, box_px, inside),
+                    best_one_at_a_time(&patch, &moved, box_px, &inside),
                     "{centre:?} {box_px:?}"
                 );
             }
