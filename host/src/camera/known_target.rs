@@ -10,6 +10,12 @@
 //! The file is text, one corner per line, `u_px v_px x_m y_m z_m`: the corner's pixel in the
 //! first frame and its position in the first camera's frame (x right, y down, z forward).
 //! Lines starting with `#` and blank lines are ignored.
+//!
+//! A flat target (its corners on one plane, as a printed sheet's or the road's) also tells
+//! the surface each corner's patch lies on, which the patch warp then uses instead of
+//! taking the surface to face the camera.
+
+use nalgebra::{Matrix3, Vector3};
 
 /// One corner of a known target.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,6 +30,41 @@ pub struct TargetCorner {
 #[derive(Clone, Debug, PartialEq)]
 pub struct KnownTarget {
     pub corners: Vec<TargetCorner>,
+}
+
+impl KnownTarget {
+    /// The unit normal of the plane the corners lie on, facing the first camera (at the
+    /// origin), when there are at least three and they lie on one: off it by no more than
+    /// a twentieth of their spread across it, root mean square.
+    pub fn surface_normal(&self) -> Option<Vector3<f64>> {
+        if self.corners.len() < 3 {
+            return None;
+        }
+        let points: Vec<Vector3<f64>> = self
+            .corners
+            .iter()
+            .map(|c| Vector3::from(c.position_m))
+            .collect();
+        let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+        let scatter = points
+            .iter()
+            .map(|p| (p - centroid) * (p - centroid).transpose())
+            .sum::<Matrix3<f64>>()
+            / points.len() as f64;
+        let eigen = scatter.symmetric_eigen();
+        let mut order = [0, 1, 2];
+        order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+        let (off, across) = (eigen.eigenvalues[order[0]], eigen.eigenvalues[order[1]]);
+        if !(across > 0.0 && off.max(0.0).sqrt() <= across.sqrt() / 20.0) {
+            return None;
+        }
+        let normal = eigen.eigenvectors.column(order[0]).into_owned();
+        Some(if normal.dot(&centroid) > 0.0 {
+            -normal
+        } else {
+            normal
+        })
+    }
 }
 
 /// Corners a target needs.
@@ -122,5 +163,41 @@ mod tests {
         assert_eq!(error, TargetError::TooFewCorners(1));
         let error = parse_known_target("160 120 0 0 inf\n1 1 1 1 1\n").unwrap_err();
         assert!(error.to_string().contains("z_m"), "{error}");
+    }
+
+    #[test]
+    fn a_flat_target_knows_its_surface() {
+        let corner = |x: f64, y: f64, z: f64| TargetCorner {
+            pixel: [0.0, 0.0],
+            position_m: [x, y, z],
+        };
+        // The road 1.65 m below the camera: the normal points up, to the camera (−y).
+        let road = KnownTarget {
+            corners: vec![
+                corner(-1.0, 1.65, 6.0),
+                corner(0.5, 1.65, 6.5),
+                corner(2.0, 1.65, 12.0),
+                corner(-3.0, 1.65, 15.0),
+            ],
+        };
+        let normal = road.surface_normal().expect("flat");
+        assert!(
+            (normal - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-9,
+            "{normal}"
+        );
+        // A box's corners are not on one plane, and two corners tell no plane.
+        let cube = KnownTarget {
+            corners: vec![
+                corner(0.0, 0.0, 5.0),
+                corner(1.0, 0.0, 5.0),
+                corner(0.0, 1.0, 5.0),
+                corner(0.0, 0.0, 6.0),
+            ],
+        };
+        assert_eq!(cube.surface_normal(), None);
+        let pair = KnownTarget {
+            corners: road.corners[..2].to_vec(),
+        };
+        assert_eq!(pair.surface_normal(), None);
     }
 }

@@ -307,10 +307,17 @@ impl MonoEkf {
     }
 
     /// A filter holding this one's camera (mean and covariance) and no features, its pose's
-    /// covariance widened by `position_variance_m2` on each axis and by `angle_variance_rad2`
-    /// about each axis: the camera as a map made elsewhere sees it, when the frames between
-    /// them are known only that well.
-    pub fn camera_only(&self, position_variance_m2: f64, angle_variance_rad2: f64) -> MonoEkf {
+    /// covariance widened as when a map made elsewhere sees it through frames known only so
+    /// well: `position_variance_m2` on each axis; the frame turned about its origin by
+    /// `frame_angle_variance_rad2` about each axis, which moves the camera's position with
+    /// its lever arm as well as its heading; and the camera turned about itself by
+    /// `heading_variance_rad2`.
+    pub fn camera_only(
+        &self,
+        position_variance_m2: f64,
+        frame_angle_variance_rad2: f64,
+        heading_variance_rad2: f64,
+    ) -> MonoEkf {
         let x = self.x.rows(0, CAMERA_STATE).clone_owned();
         let mut p = self
             .p
@@ -319,15 +326,26 @@ impl MonoEkf {
         for i in 0..3 {
             p[(i, i)] += position_variance_m2;
         }
-        // A small rotation δ about the world axes turns q into exp(δ) q.
+        // A small rotation δ about the world axes turns q into exp(δ) q, and a position
+        // about the frame's origin into exp(δ) r.
         let q = self.orientation();
-        if let Some(j) = jacobian(&[0.0; 3], 4, |d| {
-            let turned = UnitQuaternion::from_scaled_axis(Vector3::new(d[0], d[1], d[2])) * q;
-            Some(vec![turned.w, turned.i, turned.j, turned.k])
-        }) {
-            let widened = &j * j.transpose() * angle_variance_rad2;
-            let mut block = p.view_mut((3, 3), (4, 4));
-            block += widened;
+        let r = self.position_m();
+        for (variance, lever) in [
+            (frame_angle_variance_rad2, r),
+            (heading_variance_rad2, Vector3::zeros()),
+        ] {
+            if let Some(j) = jacobian(&[0.0; 3], 7, |d| {
+                let turn = UnitQuaternion::from_scaled_axis(Vector3::new(d[0], d[1], d[2]));
+                let moved = turn * lever;
+                let turned = turn * q;
+                Some(vec![
+                    moved.x, moved.y, moved.z, turned.w, turned.i, turned.j, turned.k,
+                ])
+            }) {
+                let widened = &j * j.transpose() * variance;
+                let mut block = p.view_mut((0, 0), (7, 7));
+                block += widened;
+            }
         }
         MonoEkf {
             options: self.options,

@@ -237,7 +237,7 @@ impl MonoSlam {
                 ..MonoSlamStats::default()
             },
             world_from_local: (Vector3::zeros(), UnitQuaternion::identity()),
-            history: CameraHistory::default(),
+            history: CameraHistory::new(&options.history),
         }
     }
 
@@ -284,6 +284,7 @@ impl MonoSlam {
     ) -> Result<(), TargetError> {
         let crop_half = 2 * self.options.patch_half_px + 2;
         let mut seen = Vec::with_capacity(target.corners.len());
+        let surface = target.surface_normal();
         for (corner, c) in target.corners.iter().enumerate() {
             let pixel = [c.pixel[0].round() as i64, c.pixel[1].round() as i64];
             let fail = |what| TargetError::Corner {
@@ -295,9 +296,19 @@ impl MonoSlam {
             if Patch::from_image(first_image, pixel, self.options.patch_half_px).is_none() {
                 return Err(fail("flat or too near the image's edge for a patch"));
             }
-            let appearance =
-                Appearance::new(first_image, pixel, crop_half, self.filter.orientation())
-                    .ok_or_else(|| fail("too near the image's edge for a patch"))?;
+            let appearance = Appearance::new(
+                first_image,
+                pixel,
+                crop_half,
+                self.filter.position_m(),
+                self.filter.orientation(),
+            )
+            .ok_or_else(|| fail("too near the image's edge for a patch"))?;
+            // The corners are in the first camera's frame, the filter's world frame.
+            let appearance = match surface {
+                Some(normal) => appearance.with_normal(normal),
+                None => appearance,
+            };
             seen.push((appearance, Vector3::from(c.position_m)));
         }
         for (appearance, position_m) in seen {
@@ -351,8 +362,11 @@ impl MonoSlam {
         self.history.start_map(position_variance, angle_variance);
         let (origin, rotation) = self.filter.rebase();
         let new_from_old = rotation.inverse();
+        let new_from_old_origin = -(new_from_old * origin);
         for track in &mut self.tracks {
-            track.appearance.change_frame(new_from_old);
+            track
+                .appearance
+                .change_frame(new_from_old, new_from_old_origin);
         }
         let (world_origin, world_rotation) = self.world_from_local;
         self.world_from_local = (
@@ -442,6 +456,8 @@ impl MonoSlam {
         self.stats.deleted += deleted;
         self.frame += 1;
         let (position_m, orientation) = self.pose_in_world();
+        self.history
+            .note_view(&position_m, &(orientation * Vector3::z()));
         FrameReport {
             time_s,
             position_m,
@@ -584,34 +600,42 @@ impl MonoSlam {
             .filter_map(|i| self.filter.pixel(i))
             .collect();
         let apart = 2.0 * margin;
-        // Candidates in view, by the local map they were last part of.
-        let mut by_map: Vec<Vec<usize>> = vec![Vec::new(); self.history.current_map()];
-        for (id, stored) in self.history.features().iter().enumerate() {
-            if tracked.contains(&id) || stored.local_map >= by_map.len() {
-                continue;
-            }
-            let local = moved_feature(
-                stored.kind,
-                &stored.feature_in_world,
-                local_from_world,
-                to_local,
-            );
-            let Some(pixel) = self.filter.pixel_of(stored.kind, &local) else {
-                continue;
-            };
-            if camera.contains(pixel, margin)
-                && tracked_px
-                    .iter()
-                    .all(|t| (t[0] - pixel[0]).hypot(t[1] - pixel[1]) >= apart)
-            {
-                by_map[stored.local_map].push(id);
+        // Candidates in view, by the local map they were last part of, among the maps whose
+        // camera was near and looked this way.
+        let (position_in_world, orientation_in_world) = self.pose_in_world();
+        let near = self.history.maps_near(
+            &position_in_world,
+            &(orientation_in_world * Vector3::z()),
+            options.max_maps_counted,
+        );
+        let mut best: Option<(usize, Vec<usize>)> = None;
+        for (map, ids) in near {
+            let in_view: Vec<usize> = ids
+                .into_iter()
+                .filter(|id| !tracked.contains(id))
+                .filter(|&id| {
+                    let stored = &self.history.features()[id];
+                    let local = moved_feature(
+                        stored.kind,
+                        &stored.feature_in_world,
+                        local_from_world,
+                        to_local,
+                    );
+                    self.filter
+                        .pixel_of(stored.kind, &local)
+                        .is_some_and(|pixel| {
+                            camera.contains(pixel, margin)
+                                && tracked_px
+                                    .iter()
+                                    .all(|t| (t[0] - pixel[0]).hypot(t[1] - pixel[1]) >= apart)
+                        })
+                })
+                .collect();
+            if best.as_ref().is_none_or(|(_, b)| in_view.len() > b.len()) {
+                best = Some((map, in_view));
             }
         }
-        let Some((map, mut candidates)) = by_map
-            .into_iter()
-            .enumerate()
-            .max_by_key(|(_, c)| c.len())
-            .filter(|(_, c)| c.len() >= options.min_support)
+        let Some((map, mut candidates)) = best.filter(|(_, c)| c.len() >= options.min_support)
         else {
             return 0;
         };
@@ -626,8 +650,10 @@ impl MonoSlam {
         let (position_variance, chain_angle_variance) = self.history.chain_variances_since(map);
         let searchable_rad = self.options.max_search_half_px
             / (self.options.gate_chi2.sqrt() * camera.fx_px.max(camera.fy_px));
-        let angle_variance = chain_angle_variance.max(searchable_rad * searchable_rad);
-        let mut place = self.filter.camera_only(position_variance, angle_variance);
+        let heading_variance = (searchable_rad * searchable_rad - chain_angle_variance).max(0.0);
+        let mut place =
+            self.filter
+                .camera_only(position_variance, chain_angle_variance, heading_variance);
         let mut appearances = Vec::with_capacity(candidates.len());
         let mut covariances = Vec::with_capacity(candidates.len());
         for &id in &candidates {
@@ -646,7 +672,7 @@ impl MonoSlam {
             );
             covariances.push(covariance);
             let mut appearance = stored.appearance.clone();
-            appearance.change_frame(local_from_world);
+            appearance.change_frame(local_from_world, to_local);
             appearances.push(appearance);
         }
         let mut matches = Vec::new();
@@ -696,7 +722,7 @@ impl MonoSlam {
             );
             self.filter.add_feature_with(kind, &feature, &covariance);
             let mut appearance = appearances[index].clone();
-            appearance.change_frame(new_from_old);
+            appearance.change_frame(new_from_old, new_from_old_origin);
             let mut track = Track::new(appearance, self.frame);
             track.history = Some(candidates[index]);
             self.tracks.push(track);
@@ -810,8 +836,13 @@ impl MonoSlam {
             // The crop reaches beyond the patch so that a warp turned by up to 45° or
             // scaled by up to half stays inside it.
             let crop_half = 2 * self.options.patch_half_px + 2;
-            let orientation = self.filter.orientation();
-            let Some(appearance) = Appearance::new(image, centre, crop_half, orientation) else {
+            let Some(appearance) = Appearance::new(
+                image,
+                centre,
+                crop_half,
+                self.filter.position_m(),
+                self.filter.orientation(),
+            ) else {
                 continue;
             };
             if self
@@ -919,7 +950,9 @@ fn active_search(
     let centre = prediction.pixel;
     let Some(template) = appearance.template(
         filter.camera(),
+        &filter.position_m(),
         filter.orientation(),
+        filter.point_in_world(index).as_ref(),
         centre,
         options.patch_half_px,
     ) else {
