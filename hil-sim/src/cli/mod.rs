@@ -13,6 +13,7 @@ pub mod demo;
 pub mod hardware;
 pub mod nees;
 pub mod parsers;
+pub mod render_camera;
 pub mod replay;
 pub mod replay_camera;
 pub mod replay_carmen;

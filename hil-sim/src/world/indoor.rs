@@ -44,6 +44,8 @@ const MAX_ROOM_WIDTH_M: f64 = 5.5;
 const DOOR_MARGIN_M: f64 = 0.3;
 /// Distance of a hall pillar's centre from the wall it stands along, metres.
 const PILLAR_OFFSET_M: f64 = 0.8;
+/// Height of the walls and pillars, metres.
+const STOREY_HEIGHT_M: f64 = 2.6;
 
 /// The office floor for `seed`, described in the [module documentation](self).
 pub fn generate(seed: u64) -> Layout {
@@ -148,6 +150,7 @@ pub fn generate(seed: u64) -> Layout {
     };
 
     Layout {
+        heights_m: vec![STOREY_HEIGHT_M; floor.shapes.len()],
         shapes: floor.shapes,
         landmarks: floor.landmarks,
         route: Route::closed(waypoints_m),

@@ -9,11 +9,13 @@
 //! * [`Room`] ([`room`]): a world made of shapes, with a built-in default room.
 //! * [`GeoDatum`] ([`geo`]): local east/north metres to latitude/longitude, for GNSS emulators.
 //! * [`ShapeWorld`] ([`shape_world`]): many shapes behind a grid index, for large worlds.
+//! * [`CameraView`] ([`camera_view`]): what a camera on the robot sees, rendered.
 //! * [`Scenario`] ([`scenario`]): a seeded world ([`indoor`] office floor or [`outdoor`]
 //!   park, each a [`Layout`] with [`Landmark`]s and a [`Route`]) and the robot's true
 //!   [`Trajectory`] of [`RobotState`]s round it, driven by [`PurePursuit`].
 
 pub mod aerial;
+pub mod camera_view;
 pub mod geo;
 pub mod indoor;
 pub mod landmark;
@@ -28,7 +30,9 @@ pub mod scenario;
 pub mod shape;
 pub mod shape_world;
 pub mod trajectory;
+pub mod walkers;
 
+pub use camera_view::{CameraRigOptions, CameraView, Mover};
 pub use geo::GeoDatum;
 pub use landmark::Landmark;
 pub use layout::Layout;
@@ -41,6 +45,7 @@ pub use scenario::{ParseWorldKindError, Scenario, WorldKind};
 pub use shape::Shape;
 pub use shape_world::ShapeWorld;
 pub use trajectory::Trajectory;
+pub use walkers::Walkers;
 
 /// Something rays can be cast into.
 pub trait World {

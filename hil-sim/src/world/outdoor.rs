@@ -35,6 +35,21 @@ const TREE_SPACING_M: f64 = 1.0;
 const BENCH_OFFSET_M: f64 = 3.0;
 /// Spacing of the points checked along the path when placing obstacles, metres.
 const PATH_SAMPLE_M: f64 = 0.5;
+/// Heights of the building's walls, the garden walls and the benches, metres.
+const BUILDING_HEIGHT_M: f64 = 8.0;
+const GARDEN_WALL_HEIGHT_M: f64 = 1.8;
+const BENCH_HEIGHT_M: f64 = 0.45;
+
+/// A trunk's height up to its crown, by its radius (thicker trees are taller), metres.
+pub fn trunk_height_m(radius_m: f64) -> f64 {
+    2.0 + 4.0 * radius_m
+}
+
+/// A crown's radius, by its trunk's radius, metres: the crown is a ball whose centre is
+/// three quarters of its radius above the trunk's top.
+pub fn crown_radius_m(trunk_radius_m: f64) -> f64 {
+    1.2 + 3.0 * trunk_radius_m
+}
 
 /// The park for `seed`, described in the [module documentation](self).
 pub fn generate(seed: u64) -> Layout {
@@ -59,6 +74,7 @@ pub fn generate(seed: u64) -> Layout {
 
     let building_m = building_outline(rng, center_m, size_m, &clear_of_path);
     let mut shapes = closed_polygon(&building_m);
+    let mut heights_m = vec![BUILDING_HEIGHT_M; shapes.len()];
 
     for _ in 0..rng.random_range(2..=4) {
         for _ in 0..30 {
@@ -75,6 +91,7 @@ pub fn generate(seed: u64) -> Layout {
             };
             if clear_of_path(&[wall], 3.0) && clear_of(&wall, &shapes, 2.0) {
                 shapes.push(wall);
+                heights_m.push(GARDEN_WALL_HEIGHT_M);
                 break;
             }
         }
@@ -90,6 +107,7 @@ pub fn generate(seed: u64) -> Layout {
                 .iter()
                 .all(|part| clear_of(part, &shapes, TREE_SPACING_M));
             if clear_of_path(&bench_shapes, 2.2) && clear {
+                heights_m.extend(bench_shapes.iter().map(|_| BENCH_HEIGHT_M));
                 shapes.extend(bench_shapes);
                 break;
             }
@@ -98,8 +116,10 @@ pub fn generate(seed: u64) -> Layout {
 
     let landmarks = plant_trees(rng, size_m, &route, &shapes, &building_m);
     shapes.extend(landmarks.iter().map(Landmark::shape));
+    heights_m.extend(landmarks.iter().map(|tree| trunk_height_m(tree.radius_m)));
     Layout {
         shapes,
+        heights_m,
         landmarks,
         route,
     }

@@ -99,6 +99,7 @@ pub struct Scenario {
     kind: WorldKind,
     seed: u64,
     world: ShapeWorld,
+    heights_m: Vec<f64>,
     landmarks: Vec<Landmark>,
     datum: GeoDatum,
     route: Route,
@@ -122,6 +123,7 @@ impl Scenario {
             kind,
             seed,
             world: ShapeWorld::new(layout.shapes),
+            heights_m: layout.heights_m,
             landmarks: layout.landmarks,
             datum: datum(kind, seed),
             route: layout.route,
@@ -142,6 +144,11 @@ impl Scenario {
     /// The obstacles, ready for ray casting.
     pub fn world(&self) -> &ShapeWorld {
         &self.world
+    }
+
+    /// Each obstacle's height, metres, in the order of [`ShapeWorld::shapes`].
+    pub fn heights_m(&self) -> &[f64] {
+        &self.heights_m
     }
 
     /// The landmarks (trees outdoors, pillars indoors), by id.

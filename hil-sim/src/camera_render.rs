@@ -1,0 +1,209 @@
+//! `hil-sim render-camera`: a camera's frames in a seeded world, written as a sequence
+//! folder in the TUM RGB-D layout with its calibration and the true poses, so that
+//! `replay-camera` (or any TUM tool) runs on it and is scored against the truth.
+//!
+//! The robot drives the scenario's route as the other subcommands drive it; the camera,
+//! level on the robot ([`CameraView`]), takes a frame at each multiple of the period. The
+//! folder holds `rgb/NNNNNN.png` (8-bit grey), `rgb.txt` (`time file`), `calib.txt`
+//! (`fx fy cx cy k1 k2 p1 p2 k3`), `groundtruth.txt` (`t tx ty tz qx qy qz qw`, the camera
+//! in the world frame: x east, y north, z up) and `walkers.tsv` (each frame's walkers, when
+//! there are any: `t id x_m y_m radius_m height_m`).
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::world::{CameraRigOptions, CameraView, Scenario, Walkers, WorldKind};
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct CameraRenderOptions {
+    pub world: WorldKind,
+    pub seed: u64,
+    /// Simulated seconds.
+    pub duration_s: f64,
+    /// Frames per second.
+    pub rate_hz: f64,
+    /// Walkers about the route.
+    pub movers: usize,
+    pub rig: CameraRigOptions,
+    pub out: PathBuf,
+    /// Draw a progress bar on stderr.
+    pub progress: bool,
+}
+
+/// What was written.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CameraRenderSummary {
+    pub folder: PathBuf,
+    pub frames: usize,
+    pub width_px: u32,
+    pub height_px: u32,
+    pub rate_hz: f64,
+    pub movers: usize,
+    /// The length of the camera's true path, m.
+    pub true_path_m: f64,
+    pub wall_s: f64,
+}
+
+/// Why a sequence could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum CameraRenderError {
+    #[error("the rate must be a positive number of frames per second, not {0}")]
+    Rate(f64),
+    #[error("the duration must be positive and at most the scenario's, not {0} s")]
+    Duration(f64),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Image {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CameraRenderError + '_ {
+    move |source| CameraRenderError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Renders and writes the sequence. See the [module documentation](self).
+///
+/// # Errors
+/// A rate or duration that is not positive, or a file that cannot be written.
+pub fn render_camera(
+    options: &CameraRenderOptions,
+) -> Result<CameraRenderSummary, CameraRenderError> {
+    if !(options.rate_hz.is_finite() && options.rate_hz > 0.0) {
+        return Err(CameraRenderError::Rate(options.rate_hz));
+    }
+    if !(options.duration_s.is_finite() && options.duration_s > 0.0) {
+        return Err(CameraRenderError::Duration(options.duration_s));
+    }
+    let started = std::time::Instant::now();
+    let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s);
+    let view = CameraView::new(&scenario, options.rig);
+    let walkers = Walkers::new(&scenario, options.movers, options.seed);
+    let frames = (options.duration_s * options.rate_hz).floor() as usize + 1;
+    let images = options.out.join("rgb");
+    std::fs::create_dir_all(&images).map_err(io(&images))?;
+    let create = |name: &str| -> Result<BufWriter<File>, CameraRenderError> {
+        let path = options.out.join(name);
+        Ok(BufWriter::new(File::create(&path).map_err(io(&path))?))
+    };
+    let camera = view.camera();
+    let mut calib = create("calib.txt")?;
+    let calib_path = options.out.join("calib.txt");
+    writeln!(
+        calib,
+        "# hil-sim rendered camera, {} x {} px: fx fy cx cy k1 k2 p1 p2 k3\n{} {} {} {} {} {} {} {} {}",
+        camera.width_px,
+        camera.height_px,
+        camera.fx_px,
+        camera.fy_px,
+        camera.cx_px,
+        camera.cy_px,
+        camera.radial[0],
+        camera.radial[1],
+        camera.tangential[0],
+        camera.tangential[1],
+        camera.radial[2],
+    )
+    .map_err(io(&calib_path))?;
+    calib.flush().map_err(io(&calib_path))?;
+    let list_path = options.out.join("rgb.txt");
+    let truth_path = options.out.join("groundtruth.txt");
+    let walkers_path = options.out.join("walkers.tsv");
+    let mut list = create("rgb.txt")?;
+    let mut truth = create("groundtruth.txt")?;
+    let mut walkers_file = if options.movers > 0 {
+        let mut file = create("walkers.tsv")?;
+        writeln!(file, "# t\tid\tx_m\ty_m\tradius_m\theight_m").map_err(io(&walkers_path))?;
+        Some(file)
+    } else {
+        None
+    };
+    writeln!(
+        list,
+        "# timestamp filename ({} world, seed {})",
+        options.world, options.seed
+    )
+    .map_err(io(&list_path))?;
+    writeln!(
+        truth,
+        "# timestamp tx ty tz qx qy qz qw (world frame, z up)"
+    )
+    .map_err(io(&truth_path))?;
+    let bar = if options.progress {
+        indicatif::ProgressBar::new(frames as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames, {per_sec}, {eta} left",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut true_path_m = 0.0;
+    let mut last_position: Option<nalgebra::Vector3<f64>> = None;
+    for frame in 0..frames {
+        let t_s = frame as f64 / options.rate_hz;
+        let state = scenario.pose_at(t_s);
+        let movers = walkers.at(t_s);
+        let image = view.render(&state, &movers, frame as u64);
+        let name = format!("rgb/{frame:06}.png");
+        let path = options.out.join(&name);
+        image
+            .save(&path)
+            .map_err(|source| CameraRenderError::Image {
+                path: path.clone(),
+                source,
+            })?;
+        writeln!(list, "{t_s:.6} {name}").map_err(io(&list_path))?;
+        let (position, orientation) = view.camera_pose(&state);
+        let q = orientation.quaternion();
+        writeln!(
+            truth,
+            "{t_s:.6} {:.6} {:.6} {:.6} {:.9} {:.9} {:.9} {:.9}",
+            position.x, position.y, position.z, q.i, q.j, q.k, q.w
+        )
+        .map_err(io(&truth_path))?;
+        if let Some(file) = walkers_file.as_mut() {
+            for m in &movers {
+                writeln!(
+                    file,
+                    "{t_s:.6}\t{}\t{:.4}\t{:.4}\t{}\t{}",
+                    m.id, m.center_m[0], m.center_m[1], m.radius_m, m.height_m
+                )
+                .map_err(io(&walkers_path))?;
+            }
+        }
+        if let Some(last) = last_position {
+            true_path_m += (position - last).norm();
+        }
+        last_position = Some(position);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    list.flush().map_err(io(&list_path))?;
+    truth.flush().map_err(io(&truth_path))?;
+    if let Some(mut file) = walkers_file {
+        file.flush().map_err(io(&walkers_path))?;
+    }
+    Ok(CameraRenderSummary {
+        folder: options.out.clone(),
+        frames,
+        width_px: camera.width_px,
+        height_px: camera.height_px,
+        rate_hz: options.rate_hz,
+        movers: options.movers,
+        true_path_m,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
