@@ -49,5 +49,10 @@ fn the_camera_method_tracks_a_rendered_drive_through_the_park() {
     assert!(error.rotation_error_deg < 1.0, "{error:?}");
     assert!(error.ate_over_path < 0.03, "{error:?}");
     assert!(summary.features_measured_per_frame > 15.0, "{summary:?}");
+    // The walkers' masks reach the replay: it counts the features started on a walker
+    // (some are, in these frames) and those of them left in the map.
+    let started = summary.features_started_on_movers.expect("masks read");
+    let in_map = summary.map_points_on_movers.expect("masks read");
+    assert!(started >= 1 && in_map <= started, "{summary:?}");
     let _ = std::fs::remove_dir_all(&folder);
 }

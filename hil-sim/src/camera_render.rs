@@ -6,8 +6,10 @@
 //! level on the robot ([`CameraView`]), takes a frame at each multiple of the period. The
 //! folder holds `rgb/NNNNNN.png` (8-bit grey), `rgb.txt` (`time file`), `calib.txt`
 //! (`fx fy cx cy k1 k2 p1 p2 k3`), `groundtruth.txt` (`t tx ty tz qx qy qz qw`, the camera
-//! in the world frame: x east, y north, z up) and `walkers.tsv` (each frame's walkers, when
-//! there are any: `t id x_m y_m radius_m height_m`).
+//! in the world frame: x east, y north, z up) and, when there are walkers, `walkers.tsv`
+//! (each frame's walkers: `t id x_m y_m radius_m height_m`) and `movers/NNNNNN.png` (each
+//! frame's mask of the pixels that see a walker, 255 there), which `replay-camera` uses to
+//! count the features started on a walker and those left in its map.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -92,6 +94,10 @@ pub fn render_camera(
     let frames = (options.duration_s * options.rate_hz).floor() as usize + 1;
     let images = options.out.join("rgb");
     std::fs::create_dir_all(&images).map_err(io(&images))?;
+    let masks = options.out.join("movers");
+    if options.movers > 0 {
+        std::fs::create_dir_all(&masks).map_err(io(&masks))?;
+    }
     let create = |name: &str| -> Result<BufWriter<File>, CameraRenderError> {
         let path = options.out.join(name);
         Ok(BufWriter::new(File::create(&path).map_err(io(&path))?))
@@ -156,7 +162,15 @@ pub fn render_camera(
         let t_s = frame as f64 / options.rate_hz;
         let state = scenario.pose_at(t_s);
         let movers = walkers.at(t_s);
-        let image = view.render(&state, &movers, frame as u64);
+        let (image, mask) = view.render_with_movers(&state, &movers, frame as u64);
+        if options.movers > 0 {
+            let path = masks.join(format!("{frame:06}.png"));
+            mask.save(&path)
+                .map_err(|source| CameraRenderError::Image {
+                    path: path.clone(),
+                    source,
+                })?;
+        }
         let name = format!("rgb/{frame:06}.png");
         let path = options.out.join(&name);
         image

@@ -2,6 +2,7 @@
 //! sequence (KITTI or TUM layout), with the trajectory, the map, a picture of what it tracked
 //! and, where the folder has ground truth, the error after a similarity alignment.
 
+use std::collections::HashSet;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -62,6 +63,13 @@ pub struct CameraReplaySummary {
     pub features_recalled: usize,
     /// Features in the final map.
     pub map_points: usize,
+    /// With the movers' masks of a rendered sequence (`movers/`, see `render-camera`): the
+    /// features started on a pixel that saw a mover, and the points of the final map that
+    /// were.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub features_started_on_movers: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map_points_on_movers: Option<usize>,
     /// Against the folder's ground truth, after the best similarity transform.
     pub error: Option<ErrorSummary>,
 }
@@ -170,10 +178,27 @@ pub fn replay_camera(
     let drawn = drawn_frames(frames);
     let mut pictures: Vec<RgbImage> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::with_capacity(frames);
+    let masks = options.sequence.join("movers");
+    let masks = masks.is_dir().then_some(masks);
+    let mut started_on_movers: HashSet<(usize, [i64; 2])> = HashSet::new();
     let start = Instant::now();
     for index in 0..frames {
         let image = sequence.load(index)?;
         let report = slam.process(sequence.frames[index].time_s, &image);
+        if let Some(masks) = &masks {
+            let mask = mover_mask(masks, &sequence.frames[index].path)?;
+            for pixel in &report.added_pixels {
+                let at = [pixel[0].round() as i64, pixel[1].round() as i64];
+                let on_mover = u32::try_from(at[0])
+                    .ok()
+                    .zip(u32::try_from(at[1]).ok())
+                    .and_then(|(x, y)| mask.get_pixel_checked(x, y))
+                    .is_some_and(|v| v[0] > 127);
+                if on_mover {
+                    started_on_movers.insert((index, at));
+                }
+            }
+        }
         if drawn.contains(&index) && pictures.len() < drawn.len() {
             pictures.push(draw_tracks(&image, &slam));
         }
@@ -186,6 +211,15 @@ pub fn replay_camera(
     let trajectory_path = options.out.join("trajectory.tum");
     write_trajectory(&trajectory_path, &reports).map_err(write_error(&trajectory_path))?;
     let map_points = slam.map_points();
+    let map_points_on_movers = masks.as_ref().map(|_| {
+        slam.map_sightings()
+            .into_iter()
+            .filter(|(frame, pixel)| {
+                started_on_movers
+                    .contains(&(*frame, [pixel[0].round() as i64, pixel[1].round() as i64]))
+            })
+            .count()
+    });
     let map_path = options.out.join("map.ply");
     write_ply(&map_path, &map_points).map_err(write_error(&map_path))?;
     let tracks_path = options.out.join("tracks.png");
@@ -222,6 +256,8 @@ pub fn replay_camera(
         places_refused: stats.places_refused,
         features_recalled: stats.features_recalled,
         map_points: map_points.len(),
+        features_started_on_movers: masks.as_ref().map(|_| started_on_movers.len()),
+        map_points_on_movers,
         error,
     };
     let summary_path = options.out.join("summary.json");
@@ -229,6 +265,18 @@ pub fn replay_camera(
     json.and_then(|j| fs::write(&summary_path, j + "\n"))
         .map_err(write_error(&summary_path))?;
     Ok(summary)
+}
+
+/// The movers' mask of the frame whose image is `image_path`: the file of the same name in
+/// `masks`.
+fn mover_mask(masks: &Path, image_path: &Path) -> Result<GrayImage, CameraReplayError> {
+    let path = masks.join(image_path.file_name().unwrap_or_default());
+    image::open(&path)
+        .map(|i| i.into_luma8())
+        .map_err(|e| CameraReplayError::Read {
+            path,
+            source: io::Error::other(e),
+        })
 }
 
 type Pose = (Vector3<f64>, UnitQuaternion<f64>);

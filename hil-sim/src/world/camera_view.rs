@@ -271,7 +271,18 @@ impl CameraView {
     /// Frame number `frame` as the camera on the robot at `state` sees the world and the
     /// `movers` in it.
     pub fn render(&self, state: &RobotState, movers: &[Mover], frame: u64) -> GrayImage {
-        let ideal = self.render_ideal(state, movers);
+        self.render_with_movers(state, movers, frame).0
+    }
+
+    /// [`CameraView::render`]'s frame, and a mask of it: 255 where a pixel sees a mover
+    /// (the nearest ideal pixel to where its ray falls), 0 elsewhere.
+    pub fn render_with_movers(
+        &self,
+        state: &RobotState,
+        movers: &[Mover],
+        frame: u64,
+    ) -> (GrayImage, GrayImage) {
+        let (ideal, on_mover) = self.render_ideal(state, movers);
         let camera = &self.options.camera;
         let [cw, ch] = self.canvas_size;
         let mut rng = ChaCha8Rng::seed_from_u64(
@@ -283,6 +294,18 @@ impl CameraView {
             Normal::new(1.0, self.options.gain_sigma.max(0.0)).map_or(1.0, |n| n.sample(&mut rng));
         let noise = Normal::new(0.0, self.options.noise_sigma.max(0.0)).ok();
         let mut image = GrayImage::new(camera.width_px, camera.height_px);
+        let mut mask = GrayImage::new(camera.width_px, camera.height_px);
+        for (index, label) in mask.pixels_mut().enumerate() {
+            if let Some([x, y]) = self.remap[index] {
+                let (c, r) = (
+                    (x.round().max(0.0) as usize).min(cw - 1),
+                    (y.round().max(0.0) as usize).min(ch - 1),
+                );
+                if on_mover[r * cw + c] {
+                    *label = Luma([255]);
+                }
+            }
+        }
         for (index, pixel) in image.pixels_mut().enumerate() {
             let value = self.remap[index].map_or(0.0, |[x, y]| {
                 let (x0, y0) = (
@@ -298,11 +321,12 @@ impl CameraView {
             let noisy = value * gain + noise.map_or(0.0, |n| n.sample(&mut rng));
             *pixel = Luma([noisy.round().clamp(0.0, 255.0) as u8]);
         }
-        image
+        (image, mask)
     }
 
-    /// The ideal pinhole image over the canvas, grey levels, row-major.
-    fn render_ideal(&self, state: &RobotState, movers: &[Mover]) -> Vec<f32> {
+    /// The ideal pinhole image over the canvas, grey levels, row-major, and whether each of
+    /// its pixels sees a mover.
+    fn render_ideal(&self, state: &RobotState, movers: &[Mover]) -> (Vec<f32>, Vec<bool>) {
         let camera = &self.options.camera;
         let h = self.options.height_m;
         let [cw, ch] = self.canvas_size;
@@ -321,6 +345,7 @@ impl CameraView {
             })
             .collect();
         let mut out = vec![0.0f32; cw * ch];
+        let mut on_mover = vec![false; cw * ch];
         let mut hits: Vec<(f64, &Solid)> = Vec::new();
         for column in 0..cw {
             let u = (column as i64 + self.canvas_origin[0]) as f64;
@@ -356,6 +381,10 @@ impl CameraView {
                     {
                         nearest = range;
                         value = Some(shade);
+                        on_mover[row * cw + column] = matches!(
+                            solid,
+                            Solid::Post { texture, .. } if *texture >= MOVER_TEXTURE_BASE
+                        );
                     }
                 }
                 let value = value.unwrap_or_else(|| {
@@ -377,7 +406,7 @@ impl CameraView {
                 out[row * cw + column] = value;
             }
         }
-        out
+        (out, on_mover)
     }
 
     /// Where this pixel's ray (in a column of 2D direction `dir`, rising `k` per metre from
@@ -631,7 +660,7 @@ mod tests {
             speed_mps: 0.0,
             yaw_rate_radps: 0.0,
         };
-        let image = view.render_ideal(&state, &[]);
+        let (image, _) = view.render_ideal(&state, &[]);
         let [cw, _] = view.canvas_size;
         let column = (319.5 - view.canvas_origin[0] as f64).round() as usize;
         // Top edge at v = cy − fy (3.2 − 1.2) / 10 = 139.5; the wall's foot at cy + fy 1.2 / 10.
@@ -660,7 +689,7 @@ mod tests {
             id: 3,
         };
         let without = view.render(&state, &[], 0);
-        let with = view.render(&state, &[walker], 0);
+        let (with, mask) = view.render_with_movers(&state, &[walker], 0);
         if std::env::var_os("CAMERA_VIEW_PNG").is_some() {
             with.save("/tmp/walker.png").expect("save");
         }
@@ -671,5 +700,16 @@ mod tests {
         assert!((35..=60).contains(&columns), "{columns}");
         assert!(changed(320, 350) && changed(320, 200));
         assert!(!changed(320, 380) && !changed(320, 170));
+        // The mask marks the walker's pixels and nothing else.
+        for (x, y, label) in mask.enumerate_pixels() {
+            if label[0] == 255 {
+                assert!(
+                    (280..360).contains(&x) && (170..380).contains(&y),
+                    "{x} {y}"
+                );
+            }
+        }
+        assert_eq!(mask.get_pixel(320, 300)[0], 255);
+        assert_eq!(mask.get_pixel(100, 300)[0], 0);
     }
 }

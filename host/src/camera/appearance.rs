@@ -23,7 +23,8 @@ pub struct Appearance {
     /// The crop, row-major, `side × side`.
     crop: Vec<f32>,
     side: usize,
-    /// The first sighting's pixel in the full image, and the crop's corner pixel.
+    /// The first sighting's frame and pixel in the full image, and the crop's corner pixel.
+    frame: usize,
     pixel: [f64; 2],
     corner: [i64; 2],
     /// The camera at the first sighting: its position and `world_from_camera`.
@@ -35,10 +36,11 @@ pub struct Appearance {
 }
 
 impl Appearance {
-    /// Keeps the crop of `image` within `half_px` of `pixel` (integer), seen with the
-    /// camera at `position` and `orientation`; `None` when the crop does not fit in the
-    /// image.
+    /// Keeps the crop of `image` (frame number `frame`) within `half_px` of `pixel`
+    /// (integer), seen with the camera at `position` and `orientation`; `None` when the crop
+    /// does not fit in the image.
     pub fn new(
+        frame: usize,
         image: &GrayImage,
         pixel: [i64; 2],
         half_px: u32,
@@ -50,12 +52,18 @@ impl Appearance {
         Some(Appearance {
             crop,
             side: (2 * half + 1) as usize,
+            frame,
             pixel: [pixel[0] as f64, pixel[1] as f64],
             corner: [pixel[0] - half, pixel[1] - half],
             position,
             orientation,
             normal: None,
         })
+    }
+
+    /// The first sighting: its frame number and pixel.
+    pub fn sighting(&self) -> (usize, [f64; 2]) {
+        (self.frame, self.pixel)
     }
 
     /// The same sighting of a surface whose unit normal (world frame) is known.
@@ -167,6 +175,7 @@ mod tests {
         let camera = PinholeCamera::ideal(300.0, 300.0, 100.0, 80.0, [200, 160]);
         let image = textured(200, 160);
         let appearance = Appearance::new(
+            0,
             &image,
             [100, 80],
             12,
@@ -209,6 +218,7 @@ mod tests {
             *image.get_pixel(sx, sy)
         });
         let appearance = Appearance::new(
+            0,
             &image,
             [100, 80],
             12,
@@ -241,6 +251,7 @@ mod tests {
             image::Luma([texture(sx, sy)])
         });
         let appearance = Appearance::new(
+            0,
             &image,
             [100, 80],
             12,

@@ -238,6 +238,18 @@ impl CameraHistory {
         &self.features
     }
 
+    /// Where each of [`CameraHistory::points`]' points was first seen (frame number and
+    /// pixel), in the same order.
+    pub fn sightings(&self, skip: &[usize]) -> Vec<(usize, [f64; 2])> {
+        self.features
+            .iter()
+            .enumerate()
+            .filter(|(id, _)| !skip.contains(id))
+            .filter(|(_, f)| feature_point(f.kind, &f.feature_in_world).is_some())
+            .map(|(_, f)| f.appearance.sighting())
+            .collect()
+    }
+
     /// The records' points with a finite depth, world frame, but those in `skip`.
     pub fn points(&self, skip: &[usize]) -> Vec<Vector3<f64>> {
         self.features
@@ -412,6 +424,7 @@ mod tests {
     fn a_recalled_record_is_listed_under_the_map_it_was_stored_from_last() {
         let mut history = CameraHistory::default();
         let appearance = Appearance::new(
+            0,
             &image::GrayImage::from_fn(20, 20, |x, y| image::Luma([(x * 7 + y * 13) as u8])),
             [10, 10],
             3,

@@ -151,7 +151,7 @@ struct PreviousFrame {
 }
 
 /// What one frame did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FrameReport {
     pub time_s: f64,
     /// The camera's position in the world (first camera) frame.
@@ -165,6 +165,8 @@ pub struct FrameReport {
     /// Matches that updated the filter (1-point RANSAC's support and those rescued).
     pub measured: usize,
     pub added: usize,
+    /// Where the features added in this frame are, px.
+    pub added_pixels: Vec<[f64; 2]>,
     pub deleted: usize,
     /// Features deleted as moving (their matches refused frame after frame).
     pub deleted_as_moving: usize,
@@ -260,6 +262,19 @@ impl MonoSlam {
         points
     }
 
+    /// Where each point of [`MonoSlam::map_points`] was first seen: its frame number and
+    /// pixel, in the same order.
+    pub fn map_sightings(&self) -> Vec<(usize, [f64; 2])> {
+        let tracked: Vec<usize> = self.tracks.iter().filter_map(|t| t.history).collect();
+        let mut sightings = self.history.sightings(&tracked);
+        sightings.extend(
+            (0..self.filter.num_features())
+                .filter(|&i| self.filter.point_in_world(i).is_some())
+                .map(|i| self.tracks[i].appearance.sighting()),
+        );
+        sightings
+    }
+
     /// The given features of the current local map with a finite depth, world frame.
     fn local_points_in_world(
         &self,
@@ -297,6 +312,7 @@ impl MonoSlam {
                 return Err(fail("flat or too near the image's edge for a patch"));
             }
             let appearance = Appearance::new(
+                self.frame,
                 first_image,
                 pixel,
                 crop_half,
@@ -466,6 +482,10 @@ impl MonoSlam {
             matched: matches.len(),
             measured: measured.len(),
             added,
+            added_pixels: self.tracks[self.tracks.len() - added..]
+                .iter()
+                .map(|t| t.appearance.sighting().1)
+                .collect(),
             deleted,
             deleted_as_moving,
             corners_moving,
@@ -837,6 +857,7 @@ impl MonoSlam {
             // scaled by up to half stays inside it.
             let crop_half = 2 * self.options.patch_half_px + 2;
             let Some(appearance) = Appearance::new(
+                self.frame,
                 image,
                 centre,
                 crop_half,
