@@ -221,3 +221,54 @@ pub fn render_camera(
         wall_s: started.elapsed().as_secs_f64(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(name: &str, rate_hz: f64, duration_s: f64) -> CameraRenderOptions {
+        CameraRenderOptions {
+            world: WorldKind::Indoor,
+            seed: 1,
+            duration_s,
+            rate_hz,
+            movers: 0,
+            rig: CameraRigOptions::with_size(64, 48),
+            out: std::env::temp_dir().join(format!("render-camera-{name}-{}", std::process::id())),
+            progress: false,
+        }
+    }
+
+    #[test]
+    fn a_rate_or_duration_that_is_not_positive_is_refused_before_anything_is_written() {
+        for (rate, duration) in [(0.0, 1.0), (f64::NAN, 1.0), (10.0, -1.0), (10.0, 0.0)] {
+            let options = options("refused", rate, duration);
+            let error = render_camera(&options).expect_err("refused");
+            assert!(
+                matches!(
+                    error,
+                    CameraRenderError::Rate(_) | CameraRenderError::Duration(_)
+                ),
+                "{error}"
+            );
+            assert!(!options.out.exists());
+        }
+    }
+
+    #[test]
+    fn a_second_of_frames_is_written_with_its_truth() {
+        let options = options("second", 5.0, 1.0);
+        let summary = render_camera(&options).expect("written");
+        assert_eq!(summary.frames, 6);
+        let list = std::fs::read_to_string(options.out.join("rgb.txt")).expect("rgb.txt");
+        let truth =
+            std::fs::read_to_string(options.out.join("groundtruth.txt")).expect("groundtruth");
+        let lines = |text: &str| text.lines().filter(|l| !l.starts_with('#')).count();
+        assert_eq!((lines(&list), lines(&truth)), (6, 6));
+        let sequence = host::camera::CameraSequence::open(&options.out).expect("a TUM folder");
+        assert_eq!(sequence.frames.len(), 6);
+        assert_eq!(sequence.truth.len(), 6);
+        assert_eq!(sequence.load(5).expect("frame").dimensions(), (64, 48));
+        std::fs::remove_dir_all(&options.out).expect("cleaned");
+    }
+}
