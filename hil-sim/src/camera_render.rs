@@ -17,6 +17,9 @@ use std::path::{Path, PathBuf};
 
 use crate::world::{CameraRigOptions, CameraView, Scenario, Walkers, WorldKind};
 
+/// The most frames one sequence may hold (a day at 10 Hz).
+pub const MAX_FRAMES: usize = 864_000;
+
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct CameraRenderOptions {
@@ -53,8 +56,10 @@ pub struct CameraRenderSummary {
 pub enum CameraRenderError {
     #[error("the rate must be a positive number of frames per second, not {0}")]
     Rate(f64),
-    #[error("the duration must be positive and at most the scenario's, not {0} s")]
+    #[error("the duration must be a positive number of seconds, not {0}")]
     Duration(f64),
+    #[error("{0} frames are more than the {MAX_FRAMES} a sequence may hold")]
+    TooManyFrames(f64),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -87,11 +92,15 @@ pub fn render_camera(
     if !(options.duration_s.is_finite() && options.duration_s > 0.0) {
         return Err(CameraRenderError::Duration(options.duration_s));
     }
+    let frames = (options.duration_s * options.rate_hz).floor() + 1.0;
+    if frames > MAX_FRAMES as f64 {
+        return Err(CameraRenderError::TooManyFrames(frames));
+    }
+    let frames = frames as usize;
     let started = std::time::Instant::now();
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s);
     let view = CameraView::new(&scenario, options.rig);
     let walkers = Walkers::new(&scenario, options.movers, options.seed);
-    let frames = (options.duration_s * options.rate_hz).floor() as usize + 1;
     let images = options.out.join("rgb");
     std::fs::create_dir_all(&images).map_err(io(&images))?;
     let masks = options.out.join("movers");
@@ -241,13 +250,21 @@ mod tests {
 
     #[test]
     fn a_rate_or_duration_that_is_not_positive_is_refused_before_anything_is_written() {
-        for (rate, duration) in [(0.0, 1.0), (f64::NAN, 1.0), (10.0, -1.0), (10.0, 0.0)] {
+        for (rate, duration) in [
+            (0.0, 1.0),
+            (f64::NAN, 1.0),
+            (10.0, -1.0),
+            (10.0, 0.0),
+            (1e9, 1e9),
+        ] {
             let options = options("refused", rate, duration);
             let error = render_camera(&options).expect_err("refused");
             assert!(
                 matches!(
                     error,
-                    CameraRenderError::Rate(_) | CameraRenderError::Duration(_)
+                    CameraRenderError::Rate(_)
+                        | CameraRenderError::Duration(_)
+                        | CameraRenderError::TooManyFrames(_)
                 ),
                 "{error}"
             );

@@ -14,7 +14,9 @@ use super::CliResult;
 /// field of view and mild barrel distortion; each frame gets an exposure gain and pixel
 /// noise from the seed. OUT gets rgb/NNNNNN.png, rgb.txt, calib.txt (`fx fy cx cy k1 k2 p1
 /// p2 k3`), groundtruth.txt (`t tx ty tz qx qy qz qw`, the camera in the world frame, z up)
-/// and, with walkers, walkers.tsv (where each walker was in each frame).
+/// and, with walkers, walkers.tsv (where each walker was in each frame) and
+/// movers/NNNNNN.png (each frame's mask of the pixels that see a walker, which
+/// `replay-camera` uses to count the features started on walkers).
 #[derive(Debug, clap::Args)]
 pub struct RenderCameraArgs {
     /// The world: `outdoor` (a park: trees, a building, garden walls, benches) or `indoor`

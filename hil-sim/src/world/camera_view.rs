@@ -165,6 +165,7 @@ impl CameraView {
     pub fn new(scenario: &Scenario, options: CameraRigOptions) -> Self {
         let mut solids = Vec::new();
         let shapes = scenario.world().shapes();
+        debug_assert_eq!(shapes.len(), scenario.heights_m().len());
         for (index, (shape, &height_m)) in shapes.iter().zip(scenario.heights_m()).enumerate() {
             let texture = index as u32;
             match *shape {
@@ -396,7 +397,13 @@ impl CameraView {
                         let along = across * t / h;
                         material_value(
                             GROUND,
-                            noise(self.seed, GROUND_TEXTURE, ground, across.max(along * 0.5)),
+                            noise(
+                                self.seed,
+                                GROUND_TEXTURE,
+                                ground,
+                                across.max(along * 0.5),
+                                None,
+                            ),
                         )
                     } else {
                         // The sky: brighter towards the zenith.
@@ -441,7 +448,7 @@ impl CameraView {
                     t,
                     material_value(
                         material,
-                        noise(self.seed, texture, [along, z], footprint(t)),
+                        noise(self.seed, texture, [along, z], footprint(t), None),
                     ),
                 ))
             }
@@ -463,7 +470,13 @@ impl CameraView {
                     t,
                     material_value(
                         material,
-                        noise(self.seed, texture, [around, z], footprint(t)),
+                        noise(
+                            self.seed,
+                            texture,
+                            [around, z],
+                            footprint(t),
+                            Some(std::f64::consts::TAU * radius_m),
+                        ),
                     ),
                 ))
             }
@@ -495,13 +508,19 @@ impl CameraView {
                     origin[1] + dir[1] * s - center_m[1],
                     h + k * s - center_m[2],
                 );
-                let azimuth = point.y.atan2(point.x) * radius_m;
+                let azimuth = (point.y.atan2(point.x) + std::f64::consts::PI) * radius_m;
                 let elevation = (point.z / radius_m).clamp(-1.0, 1.0).asin() * radius_m;
                 Some((
                     s,
                     material_value(
                         LEAVES,
-                        noise(self.seed, texture, [azimuth, elevation], footprint(s)),
+                        noise(
+                            self.seed,
+                            texture,
+                            [azimuth, elevation],
+                            footprint(s),
+                            Some(std::f64::consts::TAU * radius_m),
+                        ),
                     ),
                 ))
             }
@@ -539,23 +558,32 @@ const OCTAVES_M: [f64; 4] = [0.05, 0.15, 0.45, 1.35];
 
 /// Value noise of surface `texture` at surface coordinates `at` (m), in about −1 to 1, its
 /// octaves of equal weight, those finer than two `footprint_m` left out (their mean, zero,
-/// instead).
-fn noise(seed: u64, texture: u32, at: [f64; 2], footprint_m: f64) -> f64 {
+/// instead). With `around_m`, the first coordinate goes round a surface of that
+/// circumference: each octave's cells are stretched to fit a whole number of times round,
+/// so the texture closes on itself without a seam.
+fn noise(seed: u64, texture: u32, at: [f64; 2], footprint_m: f64, around_m: Option<f64>) -> f64 {
     let mut sum = 0.0;
     let mut weights = 0.0;
     for (octave, &cell_m) in OCTAVES_M.iter().enumerate() {
         let weight = 1.0;
+        let cells_round = around_m.map(|c| (c / cell_m).round().max(1.0));
+        let cell_u_m = match (around_m, cells_round) {
+            (Some(c), Some(n)) => c / n,
+            _ => cell_m,
+        };
         weights += weight;
         // Fades in between two and four pixels per cell.
         let detail = ((cell_m / footprint_m.max(1e-9) - 2.0) / 2.0).clamp(0.0, 1.0);
         if detail == 0.0 {
             continue;
         }
-        let (x, y) = (at[0] / cell_m, at[1] / cell_m);
+        let (x, y) = (at[0] / cell_u_m, at[1] / cell_m);
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (smooth(x - x0), smooth(y - y0));
         let lattice = |dx: i64, dy: i64| {
-            lattice_value(seed, texture, octave as u32, x0 as i64 + dx, y0 as i64 + dy)
+            let column = x0 as i64 + dx;
+            let column = cells_round.map_or(column, |n| column.rem_euclid(n as i64));
+            lattice_value(seed, texture, octave as u32, column, y0 as i64 + dy)
         };
         let top = lattice(0, 0) * (1.0 - fx) + lattice(1, 0) * fx;
         let bottom = lattice(0, 1) * (1.0 - fx) + lattice(1, 1) * fx;
@@ -711,5 +739,15 @@ mod tests {
         }
         assert_eq!(mask.get_pixel(320, 300)[0], 255);
         assert_eq!(mask.get_pixel(100, 300)[0], 0);
+    }
+
+    #[test]
+    fn a_texture_round_a_trunk_closes_on_itself() {
+        let around_m = std::f64::consts::TAU * 0.4;
+        for z in [0.3, 1.1, 2.7] {
+            let start = noise(5, 9, [0.0, z], 0.001, Some(around_m));
+            let end = noise(5, 9, [around_m - 1e-9, z], 0.001, Some(around_m));
+            assert!((start - end).abs() < 1e-6, "{start} {end}");
+        }
     }
 }

@@ -164,9 +164,13 @@ impl CameraHistory {
         max_maps: usize,
     ) -> Vec<(usize, Vec<usize>)> {
         self.places
-            .near(position_in_world, axis_in_world, max_maps)
+            .near(
+                position_in_world,
+                axis_in_world,
+                max_maps,
+                self.current_map(),
+            )
             .into_iter()
-            .filter(|&map| map < self.current_map())
             .map(|map| {
                 let ids = self.members[map]
                     .iter()
@@ -308,10 +312,16 @@ impl PlaceIndex {
         }
     }
 
-    /// The maps seen from the cubes around `position` and the quarters facing along `axis`,
-    /// nearest first (the angle from `axis` to the quarter's centre, plus a radian for each
-    /// cube away), newest first among equals; at most `max_maps`.
-    fn near(&self, position: &Vector3<f64>, axis: &Vector3<f64>, max_maps: usize) -> Vec<usize> {
+    /// The maps before `before` seen from the cubes around `position` and the quarters
+    /// facing along `axis`, nearest first (the angle from `axis` to the quarter's centre,
+    /// plus a radian for each cube away), newest first among equals; at most `max_maps`.
+    fn near(
+        &self,
+        position: &Vector3<f64>,
+        axis: &Vector3<f64>,
+        max_maps: usize,
+        before: usize,
+    ) -> Vec<usize> {
         let Some(axis) = axis.try_normalize(f64::EPSILON) else {
             return Vec::new();
         };
@@ -331,7 +341,7 @@ impl PlaceIndex {
                             continue;
                         };
                         let away = (dx.abs() + dy.abs() + dz.abs()) as f64;
-                        for &map in maps {
+                        for &map in maps.iter().filter(|&&map| map < before) {
                             scored.push((angle + away, map));
                         }
                     }
@@ -411,13 +421,16 @@ mod tests {
         index.note(1, &Vector3::new(1.0, 1.0, 1.0), &behind);
         index.note(2, &Vector3::new(15.0, 1.0, 1.0), &ahead);
         index.note(3, &Vector3::new(100.0, 1.0, 1.0), &ahead);
-        let near = index.near(&Vector3::new(2.0, 2.0, 2.0), &ahead, 8);
+        let near = index.near(&Vector3::new(2.0, 2.0, 2.0), &ahead, 8, 4);
         assert_eq!(near, vec![0, 2]);
         // A place keeps its newest maps.
         index.note(4, &Vector3::new(1.0, 1.0, 1.0), &ahead);
         index.note(5, &Vector3::new(1.0, 1.0, 1.0), &ahead);
-        let near = index.near(&Vector3::new(2.0, 2.0, 2.0), &ahead, 2);
+        let near = index.near(&Vector3::new(2.0, 2.0, 2.0), &ahead, 2, 6);
         assert_eq!(near, vec![5, 4]);
+        // The map being built is not a candidate, and does not take a place.
+        let near = index.near(&Vector3::new(2.0, 2.0, 2.0), &ahead, 2, 5);
+        assert_eq!(near, vec![4, 2]);
     }
 
     #[test]

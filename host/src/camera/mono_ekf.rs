@@ -792,6 +792,27 @@ mod tests {
     }
 
     #[test]
+    fn a_turned_frame_moves_the_camera_with_its_lever_arm() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        filter.x[0] = 3.0;
+        let before = filter.position_covariance();
+        let variance = 1e-4;
+        // Turning the frame about its origin moves a camera 3 m out along x across x, not
+        // along it: by 3 m × the angle about each of the other two axes.
+        let grown = filter.camera_only(0.0, variance, 0.0).position_covariance() - before;
+        assert!(grown[(0, 0)].abs() < 1e-9, "{grown}");
+        for axis in 1..3 {
+            assert!(
+                (grown[(axis, axis)] - 9.0 * variance).abs() < 1e-6 * variance,
+                "{grown}"
+            );
+        }
+        // Turning the camera about itself moves it nowhere.
+        let turned = filter.camera_only(0.0, 0.0, variance).position_covariance() - before;
+        assert!(turned.abs().max() < 1e-12, "{turned}");
+    }
+
+    #[test]
     fn a_new_feature_projects_to_where_it_was_seen() {
         let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
         let index = filter.add_feature([100.0, 300.0]).expect("ray");

@@ -969,15 +969,23 @@ fn active_search(
         (reach * s[(1, 1)].sqrt()).min(cap),
     ];
     let centre = prediction.pixel;
-    let Some(template) = appearance.template(
-        filter.camera(),
-        &filter.position_m(),
-        filter.orientation(),
-        filter.point_in_world(index).as_ref(),
-        centre,
-        options.patch_half_px,
-    ) else {
-        return Search::NotInView;
+    // The planar warp leaves the crop when the camera came much closer than at the first
+    // sighting or the plane is seen edge-on; the rotation's warp alone is tried then. A
+    // feature whose template cannot be made at all counts as searched and not found, so
+    // that it is deleted in time.
+    let warped = |point: Option<&Vector3<f64>>| {
+        appearance.template(
+            filter.camera(),
+            &filter.position_m(),
+            filter.orientation(),
+            point,
+            centre,
+            options.patch_half_px,
+        )
+    };
+    let Some(template) = warped(filter.point_in_world(index).as_ref()).or_else(|| warped(None))
+    else {
+        return Search::NotFound;
     };
     let box_px = [
         [
