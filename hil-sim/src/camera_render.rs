@@ -154,17 +154,7 @@ pub fn render_camera(
         "# timestamp tx ty tz qx qy qz qw (world frame, z up)"
     )
     .map_err(io(&truth_path))?;
-    let bar = if options.progress {
-        indicatif::ProgressBar::new(frames as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} frames, {per_sec}, {eta} left",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let bar = crate::camera_replay::frames_bar(frames, options.progress);
     let mut true_path_m = 0.0;
     let mut last_position: Option<nalgebra::Vector3<f64>> = None;
     for frame in 0..frames {

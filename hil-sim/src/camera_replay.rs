@@ -123,6 +123,22 @@ fn write_error(path: &Path) -> impl FnOnce(io::Error) -> CameraReplayError + '_ 
     }
 }
 
+/// A progress bar over `frames` frames on stderr, hidden unless `shown`.
+pub fn frames_bar(frames: usize, shown: bool) -> indicatif::ProgressBar {
+    let bar = if shown {
+        indicatif::ProgressBar::new(frames as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames, {per_sec}, {eta} left",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
 /// Frames drawn into `tracks.png`: four spread over the run.
 fn drawn_frames(frames: usize) -> [usize; 4] {
     let last = frames.saturating_sub(1);
@@ -164,17 +180,7 @@ pub fn replay_camera(
         }
         None => None,
     };
-    let bar = if options.progress {
-        indicatif::ProgressBar::new(frames as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} frames, {per_sec}, {eta} left",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let bar = crate::camera_replay::frames_bar(frames, options.progress);
     let drawn = drawn_frames(frames);
     let mut pictures: Vec<RgbImage> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::with_capacity(frames);
