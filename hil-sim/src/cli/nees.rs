@@ -1,5 +1,5 @@
-//! `hil-sim nees`: filter consistency by Monte-Carlo runs, the NEES of the EKF submap filter,
-//! a single global EKF and the ideal EKF.
+//! `hil-sim nees`: filter consistency by Monte-Carlo runs: the NEES of the EKF submap filter,
+//! a single global EKF and the ideal EKF, or of the camera method and its ideal filter.
 
 use super::CliResult;
 use super::parsers::parse_sigma;
@@ -11,32 +11,45 @@ use super::parsers::parse_sigma;
 /// `{"runs":N,"submap_fraction_within":…,"full_ekf_fraction_within":…,
 /// "ideal_ekf_fraction_within":…}`: the fraction of steps whose run-averaged robot-pose
 /// NEES lies within the 95 % chi-square bounds.
+///
+/// With `--method camera`, run r renders the world of seed + r through the robot's camera
+/// and runs the camera method on its frames; the camera's orientation relative to its local
+/// map is tested (a single camera does not observe its position's scale). The last line is
+/// then `{"method":"camera","runs":N,"camera_fraction_within":…}`.
 #[derive(Debug, clap::Args)]
 pub struct NeesArgs {
-    /// World (only `outdoor` has landmarks).
+    /// The filter tested: `ekf-submap` (the laser landmark filters) or `camera`.
+    #[arg(long, value_enum, default_value_t = Method::EkfSubmap)]
+    method: Method,
+    /// World (only `outdoor` has landmarks and texture).
     #[arg(long, default_value = "outdoor")]
     world: hil_sim::world::WorldKind,
-    /// Monte-Carlo runs.
-    #[arg(long, default_value_t = 20)]
-    runs: usize,
+    /// Monte-Carlo runs [default: 20, camera 10].
+    #[arg(long)]
+    runs: Option<usize>,
     /// Number of the first run: runs `first-run .. first-run + runs` of the seed's set,
     /// each with the same noise as in a longer set (to look at one run again).
     #[arg(long, default_value_t = 0)]
     first_run: usize,
-    /// Seed of the world and the noise.
+    /// Seed of the world and the noise (camera: the first run's world; run r renders the
+    /// world of seed + r).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Length of each run, s.
-    #[arg(long, default_value_t = 120.0)]
-    duration: f64,
-    /// Landmarks per local map of the submap filter.
+    /// Length of each run, s [default: 120, camera 10].
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Camera only: people walking about near the route.
+    #[arg(long, default_value_t = 0)]
+    movers: usize,
+    /// Landmarks per local map of the submap filter (ekf-submap).
     #[arg(long, default_value_t = 30)]
     local_map_landmarks: usize,
-    /// Standard deviation of a tree's range, in the simulator and in the filters, m.
+    /// Standard deviation of a tree's range, in the simulator and in the filters, m
+    /// (ekf-submap).
     #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = parse_sigma)]
     range_sigma_m: f64,
     /// Standard deviation of a tree's bearing, in the simulator and in the filters,
-    /// degrees.
+    /// degrees (ekf-submap).
     #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = parse_sigma)]
     bearing_sigma_deg: f64,
 }
@@ -44,12 +57,15 @@ pub struct NeesArgs {
 /// Runs the Monte-Carlo runs; the full report on stderr, the fractions within the bounds as
 /// the last line on stdout.
 pub fn run(args: NeesArgs) -> CliResult {
+    if args.method == Method::Camera {
+        return run_camera(args);
+    }
     let options = hil_sim::nees::NeesOptions {
         world: args.world,
-        runs: args.runs,
+        runs: args.runs.unwrap_or(20),
         first_run: args.first_run,
         seed: args.seed,
-        duration_s: args.duration,
+        duration_s: args.duration.unwrap_or(120.0),
         local_map_landmarks: args.local_map_landmarks,
         noise: hil_sim::landmark_sim::NoiseModel {
             range_sigma_m: args.range_sigma_m,
@@ -66,6 +82,40 @@ pub fn run(args: NeesArgs) -> CliResult {
             "submap_fraction_within": report.submap_fraction_within,
             "full_ekf_fraction_within": report.full_ekf_fraction_within,
             "ideal_ekf_fraction_within": report.ideal_ekf_fraction_within,
+        })
+    );
+    Ok(())
+}
+
+/// The filter `nees` tests.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Method {
+    /// The laser landmark filters: EKF submaps, one global EKF, the ideal EKF.
+    EkfSubmap,
+    /// The camera method, on a rendered camera.
+    Camera,
+}
+
+/// `nees --method camera`: the full report on stderr, the fractions as the last line.
+fn run_camera(args: NeesArgs) -> CliResult {
+    let defaults = hil_sim::camera_nees::CameraNeesOptions::default();
+    let options = hil_sim::camera_nees::CameraNeesOptions {
+        world: args.world,
+        runs: args.runs.unwrap_or(defaults.runs),
+        seed: args.seed + args.first_run as u64,
+        duration_s: args.duration.unwrap_or(defaults.duration_s),
+        movers: args.movers,
+        progress: true,
+        ..defaults
+    };
+    let report = hil_sim::camera_nees::run_camera_nees(&options)?;
+    eprintln!("{}", serde_json::to_string_pretty(&report)?);
+    println!(
+        "{}",
+        serde_json::json!({
+            "method": "camera",
+            "runs": report.runs,
+            "camera_fraction_within": report.camera_fraction_within,
         })
     );
     Ok(())

@@ -361,15 +361,21 @@ impl MonoEkf {
     /// (m², rad² about the world axes).
     pub fn pose_variances(&self) -> (f64, f64) {
         let position = self.p.view((0, 0), (3, 3)).trace() / 3.0;
+        (position, self.orientation_covariance().trace() / 3.0)
+    }
+
+    /// The covariance of the camera's orientation as a small rotation `δ` about the world
+    /// axes (the true orientation `exp(δ)` times the estimate), rad².
+    pub fn orientation_covariance(&self) -> nalgebra::Matrix3<f64> {
         let q = self.orientation();
-        let angle = jacobian(&[q.w, q.i, q.j, q.k], 3, |c| {
+        jacobian(&[q.w, q.i, q.j, q.k], 3, |c| {
             let turned = quaternion(c) * q.inverse();
             Some(turned.scaled_axis().as_slice().to_vec())
         })
-        .map_or(0.0, |j| {
-            (&j * self.p.view((3, 3), (4, 4)) * j.transpose()).trace() / 3.0
-        });
-        (position, angle)
+        .map_or_else(nalgebra::Matrix3::zeros, |j| {
+            let c = &j * self.p.view((3, 3), (4, 4)) * j.transpose();
+            nalgebra::Matrix3::from_fn(|r, k| 0.5 * (c[(r, k)] + c[(k, r)]))
+        })
     }
 
     /// Adds a feature with these numbers and covariance, uncorrelated with the rest (a

@@ -1,0 +1,289 @@
+//! `hil-sim nees --method camera`: the consistency of the camera method's filter, measured by
+//! Monte-Carlo runs in rendered worlds.
+//!
+//! Run `r` renders the world of seed `seed + r` (each run its own park, so the runs are
+//! independent) as the camera on the robot sees it ([`CameraView`]) and runs the camera
+//! method ([`MonoSlam`]) on the frames as they are rendered, with nothing written to disk.
+//! At every frame the camera's orientation error is compared with the covariance the filter
+//! claims for it, as the NEES `eᵀ P⁻¹ e` (three degrees of freedom), and averaged over the
+//! runs; a consistent filter keeps that average within the two-sided 95 % bounds of
+//! `χ²(3 N) / N` on 95 % of the frames (Bar-Shalom, Li and Kirubarajan, "Estimation with
+//! Applications to Tracking and Navigation", §5.4).
+//!
+//! What is tested is what the filter estimates: the camera relative to its current local
+//! map's origin (the camera where that map started; its pose is exact there, so the frame a
+//! map starts in is not counted). The position is left out: a single camera measures it only
+//! up to a scale the filter does not observe, so its error is no test of the covariance.
+
+use host::camera::{MonoSlam, MonoSlamOptions};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use serde::Serialize;
+
+use crate::landmark_sim::chi_square_bounds;
+use crate::world::{CameraRigOptions, CameraView, Scenario, Walkers, WorldKind};
+
+/// Confidence of the NEES bounds.
+const CONFIDENCE: f64 = 0.95;
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct CameraNeesOptions {
+    pub world: WorldKind,
+    /// Monte-Carlo runs.
+    pub runs: usize,
+    /// The first run's world seed; run `r` renders the world of `seed + r`.
+    pub seed: u64,
+    /// Length of each run, s.
+    pub duration_s: f64,
+    /// Frames per second.
+    pub rate_hz: f64,
+    /// Walkers about the route.
+    pub movers: usize,
+    pub rig: CameraRigOptions,
+    pub slam: MonoSlamOptions,
+    /// Draw a progress bar on stderr.
+    pub progress: bool,
+}
+
+impl Default for CameraNeesOptions {
+    /// Outdoor, 10 runs of 10 s at 10 Hz from seed 1, no walkers, the default rig and filter.
+    fn default() -> Self {
+        CameraNeesOptions {
+            world: WorldKind::Outdoor,
+            runs: 10,
+            seed: 1,
+            duration_s: 10.0,
+            rate_hz: 10.0,
+            movers: 0,
+            rig: CameraRigOptions::default(),
+            slam: MonoSlamOptions::default(),
+            progress: false,
+        }
+    }
+}
+
+/// The result, printed as JSON.
+#[derive(Clone, Debug, Serialize)]
+pub struct CameraNeesReport {
+    pub runs: usize,
+    pub frames_per_run: usize,
+    /// The 95 % bounds of the run-averaged NEES with every run counted.
+    pub bounds: (f64, f64),
+    /// Fraction of frames whose run-averaged camera-orientation NEES of the camera method
+    /// lies within the 95 % bounds.
+    pub camera_fraction_within: f64,
+    /// Of the frames outside, the fraction above the upper bound (the filter too sure).
+    pub camera_fraction_above: f64,
+    /// The run-averaged NEES's median over the frames (3 for a consistent filter).
+    pub camera_median_nees: f64,
+    /// Each run's mean camera-orientation error in the world (first camera) frame, degrees.
+    pub camera_rotation_error_deg: Vec<f64>,
+    /// Each run's local maps.
+    pub camera_local_maps: Vec<usize>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CameraNeesError {
+    #[error("the camera method needs the outdoor world (the indoor one has no texture to track)")]
+    World,
+    #[error("--runs must be at least 1")]
+    Runs,
+    #[error("the duration and rate must be positive and give at least two frames")]
+    Frames,
+}
+
+/// One run's NEES per frame (`None` where it is not tested) and its errors.
+struct RunResult {
+    camera: Vec<Option<f64>>,
+    rotation_error_deg: f64,
+    local_maps: usize,
+}
+
+/// Runs the Monte-Carlo runs. See the [module documentation](self).
+///
+/// # Errors
+/// The indoor world, no runs, or a duration and rate that give fewer than two frames.
+pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, CameraNeesError> {
+    if options.world != WorldKind::Outdoor {
+        return Err(CameraNeesError::World);
+    }
+    if options.runs == 0 {
+        return Err(CameraNeesError::Runs);
+    }
+    let frames = options.duration_s * options.rate_hz;
+    if !(frames.is_finite() && frames >= 1.0 && options.rate_hz > 0.0) {
+        return Err(CameraNeesError::Frames);
+    }
+    let frames = frames.min(crate::camera_render::MAX_FRAMES as f64).floor() as usize + 1;
+    let bar = crate::camera_replay::frames_bar(frames * options.runs, options.progress);
+    let results: Vec<RunResult> = (0..options.runs)
+        .map(|run| {
+            let result = run_one(options, options.seed + run as u64, frames, &bar);
+            bar.set_message(format!("run {}", run + 1));
+            result
+        })
+        .collect();
+    bar.finish_and_clear();
+
+    let camera: Vec<&[Option<f64>]> = results.iter().map(|r| r.camera.as_slice()).collect();
+    let (camera_fraction_within, camera_fraction_above, camera_median_nees) =
+        fractions(&camera, frames);
+    Ok(CameraNeesReport {
+        runs: options.runs,
+        frames_per_run: frames,
+        bounds: chi_square_bounds(3, options.runs, CONFIDENCE).unwrap_or((0.0, f64::INFINITY)),
+        camera_fraction_within,
+        camera_fraction_above,
+        camera_median_nees,
+        camera_rotation_error_deg: results.iter().map(|r| r.rotation_error_deg).collect(),
+        camera_local_maps: results.iter().map(|r| r.local_maps).collect(),
+    })
+}
+
+/// Of the frames where at least one run tested the NEES: the fraction whose run-averaged
+/// NEES lies within the bounds for the runs counted there, the fraction above them, and the
+/// median of the run-averaged NEES.
+fn fractions(runs: &[&[Option<f64>]], frames: usize) -> (f64, f64, f64) {
+    let mut tested = 0usize;
+    let mut within = 0usize;
+    let mut above = 0usize;
+    let mut averages = Vec::with_capacity(frames);
+    for frame in 0..frames {
+        let values: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| r.get(frame).copied().flatten())
+            .collect();
+        let Some((low, high)) = chi_square_bounds(3, values.len(), CONFIDENCE) else {
+            continue;
+        };
+        let average = values.iter().sum::<f64>() / values.len() as f64;
+        tested += 1;
+        if average > high {
+            above += 1;
+        } else if average >= low {
+            within += 1;
+        }
+        averages.push(average);
+    }
+    averages.sort_by(f64::total_cmp);
+    let median = averages
+        .get(averages.len() / 2)
+        .copied()
+        .unwrap_or(f64::NAN);
+    let share = |n: usize| n as f64 / tested.max(1) as f64;
+    (share(within), share(above), median)
+}
+
+/// `eᵀ P⁻¹ e` for the orientation error `estimate · truth⁻¹` about the world axes; `None`
+/// where `P` cannot be inverted (the pose exact, as where a local map starts).
+fn orientation_nees(
+    estimate: &UnitQuaternion<f64>,
+    truth: &UnitQuaternion<f64>,
+    covariance: &Matrix3<f64>,
+) -> Option<f64> {
+    if covariance.trace() < 1e-14 {
+        return None;
+    }
+    let error = (truth * estimate.inverse()).scaled_axis();
+    let inverse = covariance.try_inverse()?;
+    Some((error.transpose() * inverse * error)[(0, 0)])
+}
+
+/// One run: the world of `seed`, rendered and run through the camera method.
+fn run_one(
+    options: &CameraNeesOptions,
+    seed: u64,
+    frames: usize,
+    bar: &indicatif::ProgressBar,
+) -> RunResult {
+    let scenario = Scenario::generate_for(options.world, seed, options.duration_s);
+    let view = CameraView::new(&scenario, options.rig);
+    let walkers = Walkers::new(&scenario, options.movers, seed);
+    let camera = *view.camera();
+    let mut slam = MonoSlam::new(camera, options.slam);
+    let mut truths: Vec<(Vector3<f64>, UnitQuaternion<f64>)> = Vec::with_capacity(frames);
+    let mut camera_nees = Vec::with_capacity(frames);
+    let mut local_maps = 1;
+    let mut origin = 0;
+    let mut rotation_error_rad = 0.0;
+    for frame in 0..frames {
+        let t_s = frame as f64 / options.rate_hz;
+        let state = scenario.pose_at(t_s);
+        let truth = view.camera_pose(&state);
+        truths.push(truth);
+        let image = view.render(&state, &walkers.at(t_s), frame as u64);
+        let report = slam.process(t_s, &image);
+        if slam.stats().local_maps != local_maps {
+            local_maps = slam.stats().local_maps;
+            origin = frame;
+        }
+        let in_first =
+            |(_, rotation): &(Vector3<f64>, UnitQuaternion<f64>)| truths[0].1.inverse() * rotation;
+        let from_origin = truths[origin].1.inverse() * truth.1;
+        let filter = slam.filter();
+        camera_nees.push(orientation_nees(
+            &filter.orientation(),
+            &from_origin,
+            &filter.orientation_covariance(),
+        ));
+        rotation_error_rad += report.orientation.angle_to(&in_first(&truth));
+
+        bar.inc(1);
+    }
+    RunResult {
+        camera: camera_nees,
+        rotation_error_deg: (rotation_error_rad / frames as f64).to_degrees(),
+        local_maps,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rotation_error_as_large_as_its_standard_deviation_scores_one_per_axis() {
+        let truth = UnitQuaternion::from_euler_angles(0.1, -0.2, 0.3);
+        let error = UnitQuaternion::from_scaled_axis(Vector3::new(0.01, 0.0, 0.0));
+        let estimate = error.inverse() * truth;
+        let covariance = Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-6, 1e-6));
+        let nees = orientation_nees(&estimate, &truth, &covariance).expect("tested");
+        assert!((nees - 1.0).abs() < 1e-6, "{nees}");
+        assert_eq!(orientation_nees(&estimate, &truth, &Matrix3::zeros()), None);
+    }
+
+    #[test]
+    fn a_short_run_tracks_the_rendered_camera_and_reports_every_frame() {
+        let options = CameraNeesOptions {
+            runs: 1,
+            duration_s: 1.5,
+            ..CameraNeesOptions::default()
+        };
+        let report = run_camera_nees(&options).expect("runs");
+        assert_eq!(report.frames_per_run, 16);
+        assert!(
+            (0.0..=1.0).contains(&report.camera_fraction_within),
+            "{report:?}"
+        );
+        assert!(report.camera_median_nees.is_finite(), "{report:?}");
+        assert!(report.camera_rotation_error_deg[0] < 2.0, "{report:?}");
+        let indoor = CameraNeesOptions {
+            world: WorldKind::Indoor,
+            ..options
+        };
+        assert!(matches!(
+            run_camera_nees(&indoor),
+            Err(CameraNeesError::World)
+        ));
+    }
+
+    #[test]
+    fn fractions_count_frames_inside_and_above_the_bounds() {
+        // Two runs, three frames: consistent, far too sure, not tested.
+        let a = [Some(3.0), Some(100.0), None];
+        let b = [Some(3.0), Some(100.0), None];
+        let (within, above, median) = fractions(&[&a, &b], 3);
+        assert_eq!((within, above), (0.5, 0.5));
+        assert_eq!(median, 100.0);
+    }
+}
