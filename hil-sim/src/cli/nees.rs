@@ -1,5 +1,5 @@
 //! `hil-sim nees`: filter consistency by Monte-Carlo runs: the NEES of the EKF submap filter,
-//! a single global EKF and the ideal EKF, or of the camera method and its ideal filter.
+//! a single global EKF and the ideal EKF, or of the camera method.
 
 use super::CliResult;
 use super::parsers::parse_sigma;
@@ -36,7 +36,7 @@ pub struct NeesArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Length of each run, s [default: 120, camera 10].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     duration: Option<f64>,
     /// Camera only: people walking about near the route.
     #[arg(long, default_value_t = 0)]
@@ -59,6 +59,11 @@ pub struct NeesArgs {
 pub fn run(args: NeesArgs) -> CliResult {
     if args.method == Method::Camera {
         return run_camera(args);
+    }
+    if args.movers > 0 {
+        return Err(
+            "--movers is for --method camera: the laser filters' world has no walkers".into(),
+        );
     }
     let options = hil_sim::nees::NeesOptions {
         world: args.world,
@@ -102,7 +107,10 @@ fn run_camera(args: NeesArgs) -> CliResult {
     let options = hil_sim::camera_nees::CameraNeesOptions {
         world: args.world,
         runs: args.runs.unwrap_or(defaults.runs),
-        seed: args.seed + args.first_run as u64,
+        seed: args
+            .seed
+            .checked_add(args.first_run as u64)
+            .ok_or("--seed and --first-run run past the largest seed")?,
         duration_s: args.duration.unwrap_or(defaults.duration_s),
         movers: args.movers,
         progress: true,

@@ -798,6 +798,24 @@ mod tests {
     }
 
     #[test]
+    fn the_orientation_covariance_is_that_of_a_small_turn_about_the_world_axes() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        let q = UnitQuaternion::from_euler_angles(0.2, -0.4, 1.1);
+        filter.x.as_mut_slice()[3..7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+        // The quaternion's covariance for a turn exp(δ) q with δ of this covariance.
+        let turn = nalgebra::Matrix3::new(4e-4, 1e-4, 0.0, 1e-4, 1e-4, 0.0, 0.0, 0.0, 9e-4);
+        let g = jacobian(&[0.0; 3], 4, |d| {
+            let turned = UnitQuaternion::from_scaled_axis(Vector3::new(d[0], d[1], d[2])) * q;
+            Some(vec![turned.w, turned.i, turned.j, turned.k])
+        })
+        .expect("differentiable");
+        let block = &g * DMatrix::from_column_slice(3, 3, turn.as_slice()) * g.transpose();
+        filter.p.view_mut((3, 3), (4, 4)).copy_from(&block);
+        let got = filter.orientation_covariance();
+        assert!((got - turn).abs().max() < 1e-8, "{got} against {turn}");
+    }
+
+    #[test]
     fn a_turned_frame_moves_the_camera_with_its_lever_arm() {
         let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
         filter.x[0] = 3.0;
