@@ -122,15 +122,12 @@ pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, 
     if options.runs == 0 {
         return Err(CameraNeesError::Runs);
     }
-    let frames = options.duration_s * options.rate_hz;
-    if !(frames.is_finite() && frames >= 1.0 && options.rate_hz > 0.0) {
+    let periods = options.duration_s * options.rate_hz;
+    if !(periods.is_finite() && periods >= 1.0 && options.rate_hz > 0.0) {
         return Err(CameraNeesError::Frames);
     }
-    let frames = frames.floor() + 1.0;
-    if frames > crate::camera_render::MAX_FRAMES as f64 {
-        return Err(CameraNeesError::TooManyFrames(frames));
-    }
-    let frames = frames as usize;
+    let frames = crate::camera_render::frame_count(options.duration_s, options.rate_hz)
+        .map_err(CameraNeesError::TooManyFrames)?;
     if options.seed.checked_add(options.runs as u64 - 1).is_none() {
         return Err(CameraNeesError::Seed(options.seed, options.runs));
     }

@@ -20,6 +20,17 @@ use crate::world::{CameraRigOptions, CameraView, Scenario, Walkers, WorldKind};
 /// The most frames one sequence may hold (a day at 10 Hz).
 pub const MAX_FRAMES: usize = 864_000;
 
+/// The frames of a sequence of `duration_s` at `rate_hz` (both positive): one at each
+/// multiple of the period, the first at 0. `Err` with the count when it is more than
+/// [`MAX_FRAMES`].
+pub fn frame_count(duration_s: f64, rate_hz: f64) -> Result<usize, f64> {
+    let frames = (duration_s * rate_hz).floor() + 1.0;
+    if frames > MAX_FRAMES as f64 {
+        return Err(frames);
+    }
+    Ok(frames as usize)
+}
+
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct CameraRenderOptions {
@@ -92,11 +103,8 @@ pub fn render_camera(
     if !(options.duration_s.is_finite() && options.duration_s > 0.0) {
         return Err(CameraRenderError::Duration(options.duration_s));
     }
-    let frames = (options.duration_s * options.rate_hz).floor() + 1.0;
-    if frames > MAX_FRAMES as f64 {
-        return Err(CameraRenderError::TooManyFrames(frames));
-    }
-    let frames = frames as usize;
+    let frames = frame_count(options.duration_s, options.rate_hz)
+        .map_err(CameraRenderError::TooManyFrames)?;
     let started = std::time::Instant::now();
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s);
     let view = CameraView::new(&scenario, options.rig);

@@ -180,7 +180,7 @@ pub fn replay_camera(
         }
         None => None,
     };
-    let bar = crate::camera_replay::frames_bar(frames, options.progress);
+    let bar = frames_bar(frames, options.progress);
     let drawn = drawn_frames(frames);
     let mut pictures: Vec<RgbImage> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::with_capacity(frames);
