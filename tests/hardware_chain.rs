@@ -51,6 +51,7 @@ fn a_board_on_serial_lines_is_driven_on_the_wall_clock_and_accounts_for_every_sc
         realtime: false,
         hardware: None,
         grid_every_scan: false,
+        camera: None,
     };
     let lines = WallLines {
         laser: Line::Pty(laser),

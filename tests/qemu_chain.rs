@@ -93,6 +93,7 @@ fn options(name: &str) -> RunOptions {
         realtime: false,
         hardware: None,
         grid_every_scan: false,
+        camera: None,
     }
 }
 

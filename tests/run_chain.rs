@@ -34,6 +34,7 @@ fn run_world(
         realtime: false,
         hardware: None,
         grid_every_scan: false,
+        camera: None,
     };
     let summary = run(&options).expect("run");
     (summary, out)

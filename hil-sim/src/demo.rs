@@ -147,6 +147,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         realtime: options.realtime,
         hardware: None,
         grid_every_scan: false,
+        camera: None,
     };
     // The pty's device end stays open until the daemon has read everything: closing it hangs
     // the line up, and the frames still in the board end's buffer would be lost.

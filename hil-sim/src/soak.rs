@@ -261,6 +261,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         realtime: false,
         hardware: None,
         grid_every_scan: false,
+        camera: None,
     };
     // The device end stays open until the daemon has read everything (see `demo`).
     let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;

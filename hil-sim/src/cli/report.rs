@@ -28,6 +28,26 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             .peak_resident_mib
             .map_or("not known".to_string(), |mib| format!("{mib:.0} MiB")),
     );
+    if let (Some(frames), Some(camera)) = (&timing.camera_frames, &summary.camera) {
+        let metres = |v: Option<f64>| v.map_or("—".to_string(), |m| format!("{m:.2} m"));
+        eprintln!(
+            "hil-sim: the camera method took {:.1} ms per frame on average; p50 {:.1}, p99 {:.1}, \
+             max {:.1} ms over {} frames; GPS scale {} against the truth's ({} fixes); position \
+             error {} RMS, {} at the end, over {:.0} m",
+            frames.mean_ms,
+            frames.p50_ms,
+            frames.p99_ms,
+            frames.max_ms,
+            frames.scans,
+            camera
+                .scale_error
+                .map_or("not fixed".to_string(), |e| format!("{:+.2} %", e * 100.0)),
+            camera.fixes_paired,
+            metres(camera.rms_position_m),
+            metres(camera.final_position_m),
+            camera.travelled_m,
+        );
+    }
     if let Some(parts) = &timing.slam_parts_s {
         eprintln!(
             "hil-sim: the SLAM's time by part: tracking {:.2} s, choosing loop closures {:.2} s, \

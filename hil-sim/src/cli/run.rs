@@ -17,12 +17,31 @@ use super::report::report;
 /// counted), OUT/performance.json (the pipeline's time per scan: mean, percentiles, the first
 /// and the last 1 000 scans; the peak memory; the grid method's time by part),
 /// OUT/landmarks.tsv and OUT/world.tsv. Prints the summary on stdout.
+///
+/// With `--method camera` (outdoors) the robot computer's camera is rendered at the true
+/// pose of each frame's time and the camera method estimates the robot from its frames,
+/// its map put into the world frame (and given its scale) by the GPS fixes that come
+/// through the board; the laser runs as ever and each scan gets the camera's pose. Adds
+/// OUT/camera_trajectory.tum and OUT/camera_ground_truth.tum (`t tx ty tz qx qy qz qw` per
+/// frame) and the `camera` part of OUT/summary.json: the scale from GPS against the true
+/// one, the position error, the frames' timing in OUT/performance.json.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     /// The kind of world: `indoor` (rooms and corridors) or `outdoor` (a park with trees
     /// and a building; GPS has a fix).
     #[arg(long, default_value = "indoor")]
     world: hil_sim::world::WorldKind,
+    /// What estimates the robot: `laser` (the world's laser method: the occupancy grid
+    /// indoors, the EKF on trees with GPS outdoors) or `camera` (outdoors: the camera
+    /// method on the robot computer's camera, with GPS).
+    #[arg(long, value_enum, default_value_t = Method::Laser)]
+    method: Method,
+    /// Camera frames per second (`--method camera`).
+    #[arg(long, default_value_t = 10.0)]
+    camera_rate: f64,
+    /// People walking about near the route, seen by the camera (`--method camera`).
+    #[arg(long, default_value_t = 0)]
+    movers: usize,
     /// Seed of the world, the route, the sensor noise and the faults.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -68,8 +87,25 @@ pub struct RunArgs {
     grid_every_scan: bool,
 }
 
+/// What estimates the robot in a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Method {
+    /// The world's laser method.
+    Laser,
+    /// The camera method with GPS (outdoors).
+    Camera,
+}
+
 /// Runs the chain and reports its summary; with `--qemu`, also what the image measured.
 pub fn run(args: RunArgs) -> CliResult {
+    if args.method == Method::Laser && args.movers > 0 {
+        return Err("--movers walk before the camera: it needs --method camera".into());
+    }
+    let camera = (args.method == Method::Camera).then(|| hil_sim::run::CameraRunOptions {
+        rate_hz: args.camera_rate,
+        movers: args.movers,
+        ..hil_sim::run::CameraRunOptions::default()
+    });
     let options = hil_sim::run::RunOptions {
         world: args.world,
         seed: args.seed,
@@ -79,6 +115,7 @@ pub fn run(args: RunArgs) -> CliResult {
         realtime: args.realtime,
         hardware: args.hardware.ports(),
         grid_every_scan: args.grid_every_scan,
+        camera,
     };
     let Some(elf) = args.qemu else {
         let summary = if args.qemu_config {

@@ -263,6 +263,8 @@ pub struct Sensors<W: World> {
     /// the laser's first recorded scan: the fixes start when that scan goes out, keeping
     /// the log's timing between the two sensors (at the recorded laser pace).
     pub gps_log: Option<(Vec<LocalGpsFix>, f64)>,
+    /// The robot computer's camera (the camera method), following `trajectory`.
+    pub camera: Option<super::camera_feed::CameraFeed>,
 }
 
 /// Counts of what the sensors sent.
@@ -664,6 +666,12 @@ impl<'c, W: World> Engine<'c, W> {
             wrote |= self.laser_cut_off(at_us, CutBy::Restart)?;
         }
         wrote |= self.emit_laser(t_us)?;
+        // The camera is the robot computer's: its frames go to the host, not the board.
+        if let Some(camera) = self.sensors.camera.as_mut() {
+            while let Some(frame) = camera.due(t_us, &self.sensors.trajectory) {
+                self.host.camera_frame(frame);
+            }
+        }
         let runs = self.sensors.gps.poll_output_runs(t_us);
         for run in runs {
             self.gps_end.follow_baud(run.baud)?;

@@ -4,10 +4,14 @@
 //! Indoors (and for CARMEN logs and raw captures) method 2 runs
 //! ([`host::slam::GridPipeline`]); outdoors (and for Victoria Park) method 1
 //! ([`host::ekf_slam::EkfPipeline`]) with GPS, whose map becomes the local frame at the
-//! world's datum once it is aligned to the fixes.
+//! world's datum once it is aligned to the fixes. With the camera (`--method camera`,
+//! outdoors) the camera method runs ([`host::camera::CameraPipeline`]) on the frames the
+//! robot computer's camera takes and the fixes from the board; the laser's scans are only
+//! given the camera's pose at their time.
 
 use std::io;
 
+use host::camera::{CameraPipeline, CameraPipelineOptions, PinholeCamera};
 use host::ekf_slam::EkfPipeline;
 use host::geometry::Pose2;
 use host::link::SensorEvent;
@@ -22,6 +26,12 @@ pub enum Estimator {
     Grid(Box<GridPipeline>),
     /// Method 1: EKF SLAM on trees with local maps, aligned to and updated by GPS.
     Ekf(Box<EkfPipeline>),
+    /// Method 1 on the camera, aligned to GPS; the host times of the scans, whose poses it
+    /// gives from the camera's.
+    Camera {
+        pipeline: Box<CameraPipeline>,
+        scan_times_s: Vec<f64>,
+    },
 }
 
 impl Estimator {
@@ -46,11 +56,53 @@ impl Estimator {
         Estimator::Ekf(Box::new(EkfPipeline::new(&options)))
     }
 
+    /// The camera method with `camera`, its local metric frame at `datum_lat_lon_deg`.
+    ///
+    /// # Errors
+    /// The datum is not a latitude and longitude.
+    pub fn camera(camera: PinholeCamera, datum_lat_lon_deg: [f64; 2]) -> io::Result<Estimator> {
+        let options = CameraPipelineOptions {
+            datum_lat_lon_deg: Some(datum_lat_lon_deg),
+            ..CameraPipelineOptions::default()
+        };
+        let pipeline = CameraPipeline::new(camera, options).map_err(io::Error::other)?;
+        Ok(Estimator::Camera {
+            pipeline: Box::new(pipeline),
+            scan_times_s: Vec::new(),
+        })
+    }
+
     /// Uses one sensor event.
     pub fn on_event(&mut self, event: &SensorEvent) {
         match self {
             Estimator::Grid(pipeline) => pipeline.on_event(event),
             Estimator::Ekf(pipeline) => pipeline.on_event(event),
+            Estimator::Camera {
+                pipeline,
+                scan_times_s,
+            } => {
+                if let SensorEvent::Scan { host_time_s, .. } = event {
+                    scan_times_s.push(*host_time_s);
+                }
+                pipeline.on_event(event);
+            }
+        }
+    }
+
+    /// Uses one camera frame taken at host time `t_s`; `false` where the method has no
+    /// camera.
+    pub fn on_camera_frame(&mut self, t_s: f64, image: &image::GrayImage) -> bool {
+        match self {
+            Estimator::Camera { pipeline, .. } => pipeline.on_frame(t_s, image).is_some(),
+            _ => false,
+        }
+    }
+
+    /// The camera method, when it runs.
+    pub fn camera_pipeline(&self) -> Option<&CameraPipeline> {
+        match self {
+            Estimator::Camera { pipeline, .. } => Some(pipeline),
+            _ => None,
         }
     }
 
@@ -58,7 +110,7 @@ impl Estimator {
     pub fn slam_timings(&self) -> Option<SlamTimings> {
         match self {
             Estimator::Grid(pipeline) => Some(pipeline.timings()),
-            Estimator::Ekf(_) => None,
+            Estimator::Ekf(_) | Estimator::Camera { .. } => None,
         }
     }
 
@@ -67,7 +119,7 @@ impl Estimator {
     pub fn slam_stats(&self) -> Option<SlamStats> {
         match self {
             Estimator::Grid(pipeline) => Some(pipeline.stats()),
-            Estimator::Ekf(_) => None,
+            Estimator::Ekf(_) | Estimator::Camera { .. } => None,
         }
     }
 
@@ -76,6 +128,7 @@ impl Estimator {
         match self {
             Estimator::Grid(pipeline) => pipeline.finish(),
             Estimator::Ekf(pipeline) => pipeline.finish(),
+            Estimator::Camera { .. } => {}
         }
     }
 
@@ -93,6 +146,13 @@ impl Estimator {
                 .iter()
                 .map(|p| entries(&p.pose_in_map))
                 .collect(),
+            Estimator::Camera {
+                pipeline,
+                scan_times_s,
+            } => scan_times_s
+                .iter()
+                .map(|&t| pipeline.pose_at(t).map_or([0.0; 3], |p| entries(&p)))
+                .collect(),
         })
     }
 
@@ -101,6 +161,7 @@ impl Estimator {
         match self {
             Estimator::Grid(pipeline) => pipeline.scan_count(),
             Estimator::Ekf(pipeline) => pipeline.scans_placed(),
+            Estimator::Camera { scan_times_s, .. } => scan_times_s.len(),
         }
     }
 
@@ -110,6 +171,7 @@ impl Estimator {
         match self {
             Estimator::Grid(_) => false,
             Estimator::Ekf(pipeline) => pipeline.is_geo_referenced(),
+            Estimator::Camera { pipeline, .. } => pipeline.is_geo_referenced(),
         }
     }
 }

@@ -11,8 +11,20 @@ use host::link::{LinkSession, SensorEvent};
 use host::slam::SlamTimings;
 use protocol::{GpsFixMsg, MeasuringMode, Message, ScanMsg, StatusMsg};
 
+use super::camera_feed::CameraFrame;
 use super::estimator::Estimator;
 use crate::world::RobotState;
+
+/// A camera frame the pipeline was given, and the camera's truth then.
+#[derive(Debug, Clone, Copy)]
+pub struct CameraRecord {
+    /// Host time of the frame, s.
+    pub t_s: f64,
+    /// The camera's true position, world frame, m.
+    pub position_m: nalgebra::Vector3<f64>,
+    /// The camera's true `world_from_camera`.
+    pub orientation: nalgebra::UnitQuaternion<f64>,
+}
 
 /// A scan telegram the sensor sent, as the sim saw it leave.
 #[derive(Debug, Clone)]
@@ -74,6 +86,10 @@ pub struct HostSide {
     pub bytes_while_unplugged: u64,
     /// Wall time the pipeline took over each scan, in order, microseconds.
     pub scan_step_us: Vec<u32>,
+    /// Every camera frame the pipeline took, in order (the camera method).
+    pub camera_records: Vec<CameraRecord>,
+    /// Wall time the pipeline took over each camera frame, in order, microseconds.
+    pub frame_step_us: Vec<u32>,
     /// The grid method's time by part once the first [`TIMING_WINDOW`] scans were handed
     /// over (or fewer, while there were fewer).
     pub slam_parts_after_first_scans: Option<SlamTimings>,
@@ -135,6 +151,8 @@ impl HostSide {
             geo_referenced: false,
             bytes_while_unplugged: 0,
             scan_step_us: Vec::new(),
+            camera_records: Vec::new(),
+            frame_step_us: Vec::new(),
             slam_parts_after_first_scans: None,
             slam_parts_after_last_scans: VecDeque::new(),
         }
@@ -172,6 +190,27 @@ impl HostSide {
                 _ => {}
             }
         }
+    }
+
+    /// The robot computer's camera took `frame` (stamped on the host clock): the camera
+    /// method takes it; the others have no camera.
+    pub fn camera_frame(&mut self, frame: CameraFrame) {
+        let started = std::time::Instant::now();
+        if self.estimator.on_camera_frame(frame.t_s, &frame.image) {
+            let step_us = started.elapsed().as_micros();
+            self.frame_step_us
+                .push(u32::try_from(step_us).unwrap_or(u32::MAX));
+            self.camera_records.push(CameraRecord {
+                t_s: frame.t_s,
+                position_m: frame.position_m,
+                orientation: frame.orientation,
+            });
+        }
+    }
+
+    /// The camera method, when it runs.
+    pub fn camera_pipeline(&self) -> Option<&host::camera::CameraPipeline> {
+        self.estimator.camera_pipeline()
     }
 
     /// The link was unplugged and plugged back in: a partial frame is forgotten.

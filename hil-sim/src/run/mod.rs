@@ -19,7 +19,10 @@
 //! * `performance.json`: how long the host's pipeline took per scan on this machine, and the
 //!   peak memory ([`pipeline_timing::PipelineTiming`]; the one output that differs between
 //!   runs);
-//! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame.
+//! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame;
+//! * with the camera method ([`RunOptions::camera`]), `camera_trajectory.tum` and
+//!   `camera_ground_truth.tum`: the camera's estimated and true path per frame
+//!   ([`camera_outcome`]), scored in `summary.json`'s `camera`.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host
 //! or counted as rejected by the system itself — by the firmware (scan periods between valid
@@ -27,6 +30,8 @@
 //! host (gaps in the board's scan counter: dropped on the board or lost on the link).
 //! `accounting_balanced` says whether `delivered intact + counted rejected = emitted`.
 
+pub mod camera_feed;
+pub mod camera_outcome;
 pub mod engine;
 pub mod estimator;
 pub mod host_side;
@@ -54,6 +59,8 @@ use crate::replay::{
 };
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
+use camera_feed::CameraFeed;
+pub use camera_feed::CameraRunOptions;
 use engine::{Endpoint, Engine, Sensors, Wiring};
 pub use engine::{Line, ReportedBaud};
 use estimator::Estimator;
@@ -80,6 +87,9 @@ pub struct RunOptions {
     /// Indoors, make every scan a node of the map instead of only those after which the
     /// robot moved 0.2 m or turned 1° ([`host::slam::motion_filter`], the default).
     pub grid_every_scan: bool,
+    /// Outdoors, estimate with the camera method on the robot computer's camera (method 1
+    /// on a single camera, aligned to GPS) instead of the laser.
+    pub camera: Option<CameraRunOptions>,
 }
 
 /// The serial ports of a flashed board (`--hardware`): the emulators write to the laser and
@@ -187,9 +197,26 @@ fn run_chain(
     relay: Option<PtyLink>,
 ) -> io::Result<RunSummary> {
     check_duration(options.duration_s)?;
+    let outdoor = options.world == WorldKind::Outdoor;
+    if let Some(camera) = &options.camera {
+        if !outdoor {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "the camera method runs outdoors (the indoor world has no texture to track)",
+            ));
+        }
+        if !(camera.rate_hz.is_finite() && camera.rate_hz > 0.0) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "the camera rate must be positive frames per second, not {}",
+                    camera.rate_hz
+                ),
+            ));
+        }
+    }
     fs::create_dir_all(&options.out)?;
     let scenario = Scenario::generate_for(options.world, options.seed, options.duration_s + 1.0);
-    let outdoor = options.world == WorldKind::Outdoor;
     let lms = Lms2xx::with_world(
         Lms2xxOptions {
             seed: options.seed ^ 0x1A5E,
@@ -218,6 +245,10 @@ fn run_chain(
         gps_log: None,
         bring_up,
         uses_landmarks: outdoor,
+        camera: options
+            .camera
+            .as_ref()
+            .map(|camera| CameraFeed::new(&scenario, camera, options.seed)),
     };
     let (summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
     write_outputs(&options.out, &received, &summary)?;
@@ -427,6 +458,7 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
             config
         },
         uses_landmarks: matches!(options.source, ReplaySource::Victoria(_)),
+        camera: None,
     };
     let run_options = RunOptions {
         world: WorldKind::Indoor,
@@ -437,6 +469,7 @@ pub fn replay_on(options: &ReplayOptions, lines: Option<WallLines>) -> io::Resul
         realtime: options.realtime,
         hardware: options.hardware.clone(),
         grid_every_scan: false,
+        camera: None,
     };
     let (mut summary, received) =
         execute(chain, &run_options, run_options.duration_s, lines, None)?;
@@ -457,6 +490,8 @@ struct Chain {
     bring_up: BringUpConfig,
     /// Trees and GPS, method 1 (outdoors, Victoria Park); else the occupancy grid, method 2.
     uses_landmarks: bool,
+    /// The robot computer's camera: method 1 on it (with GPS) instead of the laser.
+    camera: Option<CameraFeed>,
 }
 
 fn check_duration(duration_s: f64) -> io::Result<()> {
@@ -488,6 +523,14 @@ fn execute(
         gps_options.baud = lines.gps_baud;
         gps_options.rate_hz = gps_rate_for(lines.gps_baud);
     }
+    let datum = [chain.datum.lat_deg, chain.datum.lon_deg];
+    let estimator = if let Some(camera) = &chain.camera {
+        Estimator::camera(*camera.camera(), datum)?
+    } else if chain.uses_landmarks {
+        Estimator::ekf(datum)
+    } else {
+        Estimator::grid(options.grid_every_scan).map_err(io::Error::other)?
+    };
     let sensors = Sensors {
         lms: chain.lms,
         gps: GpsEmulator::new(gps_options.clone()),
@@ -495,11 +538,7 @@ fn execute(
         gps_has_sky: chain.gps_has_sky,
         scan_truth: chain.scan_truth,
         gps_log: chain.gps_log,
-    };
-    let estimator = if chain.uses_landmarks {
-        Estimator::ekf([chain.datum.lat_deg, chain.datum.lon_deg])
-    } else {
-        Estimator::grid(options.grid_every_scan).map_err(io::Error::other)?
+        camera: chain.camera,
     };
     let host = HostSide::new(estimator);
     let duration_us = (duration_s * 1e6).round() as u64;
@@ -524,6 +563,7 @@ fn execute(
         );
         engine.run(duration_us)?;
         engine.host.finish()?;
+        write_camera_outputs(&engine.host, &options.out)?;
         let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
         return Ok((summary, Received::take(&mut engine.host)));
     }
@@ -564,8 +604,17 @@ fn execute(
     board.stop();
     outcome?;
     engine.host.finish()?;
+    write_camera_outputs(&engine.host, &options.out)?;
     let summary = RunSummary::new(options, &engine, wall.elapsed().as_secs_f64());
     Ok((summary, Received::take(&mut engine.host)))
+}
+
+/// The camera method's path and its truth, when it ran ([`camera_outcome`]).
+fn write_camera_outputs(host: &HostSide, out: &Path) -> io::Result<()> {
+    match host.camera_pipeline() {
+        Some(pipeline) => camera_outcome::write_camera_outputs(out, pipeline, &host.camera_records),
+        None => Ok(()),
+    }
 }
 
 /// GPS epochs per second that fit a line at `baud` (an epoch of five sentences is about

@@ -45,6 +45,10 @@ pub struct PipelineTiming {
     /// over the run; `None` for the EKF method. Kept here rather than in `summary.json`, as
     /// under `--qemu` or on `--hardware` the scans the host receives depend on timing.
     pub slam_work: Option<SlamStats>,
+    /// The same figures per camera frame (its `scans` are frames) for the camera method:
+    /// the wall time of handing the pipeline one frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_frames: Option<Box<PipelineTiming>>,
 }
 
 impl PipelineTiming {
@@ -78,6 +82,7 @@ impl PipelineTiming {
             slam_parts_first_1000_s: None,
             slam_parts_last_1000_s: None,
             slam_work: None,
+            camera_frames: None,
         }
     }
 }

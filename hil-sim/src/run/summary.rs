@@ -44,6 +44,9 @@ pub struct RunSummary {
     pub counted: Counted,
     /// The host's estimate against the truth.
     pub estimate: EstimateError,
+    /// The camera method's path against the camera's truth (`--method camera`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera: Option<super::camera_outcome::CameraOutcome>,
     /// Each stream of scans the laser began: when, and when its first scan went out.
     pub laser_streams: Vec<StreamStart>,
     /// Wall-clock seconds the run took; not written, as everything written is deterministic.
@@ -185,6 +188,9 @@ impl RunSummary {
                 final_status_received: status.is_some(),
             },
             estimate: estimate_error(&host.records, host.geo_referenced),
+            camera: host.camera_pipeline().map(|pipeline| {
+                super::camera_outcome::CameraOutcome::new(pipeline, &host.camera_records)
+            }),
             laser_streams: engine.sensors().lms.stream_starts().to_vec(),
             wall_s,
             pipeline: PipelineTiming {
@@ -193,6 +199,8 @@ impl RunSummary {
                 slam_parts_first_1000_s: host.slam_parts_after_first_scans,
                 slam_parts_last_1000_s: host.slam_timings_of_last_scans(),
                 slam_work: host.slam_stats(),
+                camera_frames: (!host.frame_step_us.is_empty())
+                    .then(|| Box::new(PipelineTiming::from_step_times(&host.frame_step_us))),
                 ..PipelineTiming::from_step_times(&host.scan_step_us)
             },
         }

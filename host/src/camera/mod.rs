@@ -1,6 +1,7 @@
 //! Method 1 on a single camera (MonoSLAM-style): an EKF over the camera and its 3D point
 //! features, with inverse-depth features, active search and 1-point RANSAC.
 //!
+//! * [`camera_pipeline`]: the method with GPS as the robot runs it, [`CameraPipeline`].
 //! * [`pinhole`]: the camera model, with radial–tangential distortion.
 //! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
 //! * [`patch`]: feature patches and their correlation search; [`appearance`]: a feature's
@@ -13,6 +14,7 @@
 //! * [`trajectory_error`]: the estimate against the truth, up to a similarity.
 
 pub mod appearance;
+pub mod camera_pipeline;
 pub mod history_memory;
 pub mod known_target;
 pub mod mono_ekf;
@@ -23,6 +25,7 @@ pub mod pinhole;
 pub mod sequence;
 pub mod trajectory_error;
 
+pub use camera_pipeline::{CameraPipeline, CameraPipelineOptions, CameraPipelineStats, CameraPose};
 pub use known_target::{KnownTarget, TargetCorner, TargetError, parse_known_target};
 pub use mono_ekf::{MonoEkf, MonoEkfOptions};
 pub use mono_slam::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats};

@@ -172,6 +172,10 @@ pub struct FrameReport {
     pub deleted_as_moving: usize,
     /// Corners not taken as features because they moved on their own.
     pub corners_moving: usize,
+    /// The earlier local map whose place the history memory recognised in this frame (its
+    /// index, the first map 0): the camera moved into that map's frame, so its position in
+    /// the world jumps here.
+    pub place_recognised: Option<usize>,
 }
 
 /// Whole-run counts.
@@ -221,6 +225,8 @@ pub struct MonoSlam {
     world_from_local: (Vector3<f64>, UnitQuaternion<f64>),
     /// The finished local maps' features.
     history: CameraHistory,
+    /// The local map whose place was recognised in the frame under way.
+    place_recognised: Option<usize>,
 }
 
 impl MonoSlam {
@@ -240,6 +246,7 @@ impl MonoSlam {
             },
             world_from_local: (Vector3::zeros(), UnitQuaternion::identity()),
             history: CameraHistory::new(&options.history),
+            place_recognised: None,
         }
     }
 
@@ -417,6 +424,7 @@ impl MonoSlam {
             self.filter.predict(time_s - last);
         }
         self.last_time_s = Some(time_s);
+        self.place_recognised = None;
         let (searched, found) = self.search(image);
         let matches: Vec<Match> = found.iter().map(|(m, _, _)| *m).collect();
         let correlations: Vec<f32> = found.iter().map(|(_, _, c)| *c).collect();
@@ -489,6 +497,7 @@ impl MonoSlam {
             deleted,
             deleted_as_moving,
             corners_moving,
+            place_recognised: self.place_recognised,
         }
     }
 
@@ -750,6 +759,7 @@ impl MonoSlam {
         }
         self.stats.places_recognised += 1;
         self.stats.features_recalled += recalled;
+        self.place_recognised = Some(map);
         recalled
     }
 

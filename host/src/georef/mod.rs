@@ -26,6 +26,7 @@ mod kml_export;
 mod landmark_in_enu;
 mod local_frame;
 mod rigid_alignment;
+mod similarity_alignment;
 
 pub use error::GeoRefError;
 pub use geo_referencer::{GeoReferencer, GeoReferencerOptions, MapAlignment};
@@ -35,3 +36,4 @@ pub use kml_export::{kml_document, write_kml};
 pub use landmark_in_enu::LandmarkInEnu;
 pub use local_frame::LocalFrame;
 pub use rigid_alignment::{AlignmentPair, RigidAlignment2d, RigidAlignmentOptions};
+pub use similarity_alignment::{SimilarityAlignment2d, SimilarityFit2d};

@@ -23,6 +23,9 @@ pub struct ErrorEllipse {
 pub struct GpsFix {
     /// The sentence that produced the report.
     pub source: FixSource,
+    /// UTC time of the fix, seconds since midnight: the epoch the report belongs to (a
+    /// receiver reports one epoch in several sentences).
+    pub utc_time_s: Option<f64>,
     /// Fix quality.
     pub quality: FixQuality,
     /// `[lat_deg, lon_deg]` on WGS84, as the report gives it (the board sends one only with a
@@ -50,6 +53,12 @@ impl GpsFix {
     pub fn from_msg(msg: &GpsFixMsg) -> GpsFix {
         GpsFix {
             source: msg.source,
+            utc_time_s: msg.time.map(|t| {
+                f64::from(t.hour) * 3600.0
+                    + f64::from(t.minute) * 60.0
+                    + f64::from(t.second)
+                    + f64::from(t.micros) * 1e-6
+            }),
             quality: msg.quality,
             lat_lon_deg: msg.position.map(|p| [p.lat_deg(), p.lon_deg()]),
             height_m: msg.alt_msl_mm.map(|alt_msl_mm| {
