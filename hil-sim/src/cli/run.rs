@@ -18,13 +18,16 @@ use super::report::report;
 /// and the last 1 000 scans; the peak memory; the grid method's time by part),
 /// OUT/landmarks.tsv and OUT/world.tsv. Prints the summary on stdout.
 ///
-/// With `--method camera` (outdoors) the robot computer's camera is rendered at the true
-/// pose of each frame's time and the camera method estimates the robot from its frames,
-/// its map put into the world frame (and given its scale) by the GPS fixes that come
-/// through the board; the laser runs as ever and each scan gets the camera's pose. Adds
-/// OUT/camera_trajectory.tum and OUT/camera_ground_truth.tum (`t tx ty tz qx qy qz qw` per
-/// frame) and the `camera` part of OUT/summary.json: the scale from GPS against the true
-/// one, the position error, the frames' timing in OUT/performance.json.
+/// With `--world outdoor --method camera` the robot computer's camera is rendered at the
+/// true pose of each frame's time and the camera method estimates the robot from its
+/// frames, its map put into the world frame (and given its scale) by the GPS fixes that
+/// come through the board; the laser runs as ever and each scan gets the camera's pose.
+/// Adds OUT/camera_trajectory.tum and OUT/camera_ground_truth.tum (`t tx ty tz qx qy qz qw`
+/// per frame), once GPS has aligned the map OUT/camera_map.geojson and OUT/camera_map.kml
+/// (the path and the map's points in WGS84), the `camera` part of OUT/summary.json (the
+/// scale from GPS against the true one, the position error) and `camera_frames` in
+/// OUT/performance.json (the time of each frame's step). Rendering and the camera method run
+/// in the run's own loop, about 60 ms a frame in all.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     /// The kind of world: `indoor` (rooms and corridors) or `outdoor` (a park with trees
@@ -32,13 +35,14 @@ pub struct RunArgs {
     #[arg(long, default_value = "indoor")]
     world: hil_sim::world::WorldKind,
     /// What estimates the robot: `laser` (the world's laser method: the occupancy grid
-    /// indoors, the EKF on trees with GPS outdoors) or `camera` (outdoors: the camera
-    /// method on the robot computer's camera, with GPS).
+    /// indoors, the EKF on trees with GPS outdoors) or `camera` (needs `--world outdoor`:
+    /// the camera method on the robot computer's camera, with GPS).
     #[arg(long, value_enum, default_value_t = Method::Laser)]
     method: Method,
-    /// Camera frames per second (`--method camera`).
-    #[arg(long, default_value_t = 10.0)]
-    camera_rate: f64,
+    /// Camera frames per second (`--method camera`) [default: 10]. At most a day's worth
+    /// of frames (864 000) per run.
+    #[arg(long)]
+    camera_rate: Option<f64>,
     /// People walking about near the route, seen by the camera (`--method camera`).
     #[arg(long, default_value_t = 0)]
     movers: usize,
@@ -98,11 +102,15 @@ enum Method {
 
 /// Runs the chain and reports its summary; with `--qemu`, also what the image measured.
 pub fn run(args: RunArgs) -> CliResult {
-    if args.method == Method::Laser && args.movers > 0 {
-        return Err("--movers walk before the camera: it needs --method camera".into());
+    if args.method == Method::Laser && (args.movers > 0 || args.camera_rate.is_some()) {
+        return Err(
+            "--movers and --camera-rate are the camera's: they need --method camera".into(),
+        );
     }
     let camera = (args.method == Method::Camera).then(|| hil_sim::run::CameraRunOptions {
-        rate_hz: args.camera_rate,
+        rate_hz: args
+            .camera_rate
+            .unwrap_or(hil_sim::run::CameraRunOptions::default().rate_hz),
         movers: args.movers,
         ..hil_sim::run::CameraRunOptions::default()
     });

@@ -29,7 +29,8 @@ pub struct CameraOutcome {
     pub scale_from_truth: Option<f64>,
     /// `scale_from_gps / scale_from_truth − 1`.
     pub scale_error: Option<f64>,
-    /// RMS distance of the fixes from the geo-referenced path, m.
+    /// RMS distance of the fixes from the path under the whole run's one similarity (the
+    /// fit that gives the scale; the path itself is placed segment by segment), m.
     pub gps_residual_rms_m: Option<f64>,
     /// RMS horizontal distance of the geo-referenced camera from its true position, m.
     pub rms_position_m: Option<f64>,
@@ -125,7 +126,10 @@ pub fn write_camera_outputs(
     records: &[CameraRecord],
 ) -> io::Result<()> {
     let (poses, frame) = match pipeline.trajectory_in_enu() {
-        Some(poses) => (poses, "world frame: east, north, up at the datum, by GPS"),
+        Some(poses) => (
+            poses,
+            "world frame: east and north at the datum by GPS, up from the first camera's height",
+        ),
         None => (
             pipeline.poses().to_vec(),
             "the first camera's frame (x right, y down, z forward), no metric scale: GPS \

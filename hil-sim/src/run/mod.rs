@@ -21,8 +21,9 @@
 //!   runs);
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame;
 //! * with the camera method ([`RunOptions::camera`]), `camera_trajectory.tum` and
-//!   `camera_ground_truth.tum`: the camera's estimated and true path per frame
-//!   ([`camera_outcome`]), scored in `summary.json`'s `camera`.
+//!   `camera_ground_truth.tum`: the camera's estimated and true path per frame, and once
+//!   GPS has aligned its map `camera_map.geojson` and `camera_map.kml` ([`camera_outcome`]),
+//!   scored in `summary.json`'s `camera`.
 //!
 //! Accounting: every scan telegram the laser emitted is either delivered intact to the host
 //! or counted as rejected by the system itself — by the firmware (scan periods between valid
@@ -211,6 +212,15 @@ fn run_chain(
                 format!(
                     "the camera rate must be positive frames per second, not {}",
                     camera.rate_hz
+                ),
+            ));
+        }
+        if let Err(frames) = crate::camera_render::frame_count(options.duration_s, camera.rate_hz) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "{frames} camera frames are more than the {} a run may render",
+                    crate::camera_render::MAX_FRAMES
                 ),
             ));
         }

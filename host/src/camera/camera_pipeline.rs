@@ -12,7 +12,7 @@
 //! fix's covariance. The fit keeps only its sums, so a fix costs the same at any hour.
 //!
 //! A receiver reports each epoch in several sentences (GGA, RMC, …); one report per epoch is
-//! used (the first with a position), so that no fix counts twice.
+//! used (the first that makes a measurement), so that no fix counts twice.
 //!
 //! Once the fixes span [`CameraPipelineOptions::alignment_span_m`], the estimate is in the
 //! `enu` frame at the datum (given, or the first fix); before that it is in the `map` frame
@@ -59,17 +59,21 @@ pub struct CameraPipelineOptions {
     /// The map is put into the `enu` frame once the paired fixes span this far (the larger
     /// side of their bounding box), m.
     pub alignment_span_m: f64,
+    /// A fix is paired only with a frame at most this far from it in time, s (a fix in a
+    /// gap of the camera's frames has no position to pair with).
+    pub max_frame_gap_s: f64,
 }
 
 impl Default for CameraPipelineOptions {
     /// The camera method's defaults, the GPS defaults, the datum at the first fix, aligned
-    /// over 20 m.
+    /// over 20 m, fixes paired within 0.5 s of a frame.
     fn default() -> Self {
         CameraPipelineOptions {
             slam: MonoSlamOptions::default(),
             gps: GpsMeasurementOptions::default(),
             datum_lat_lon_deg: None,
             alignment_span_m: 20.0,
+            max_frame_gap_s: 0.5,
         }
     }
 }
@@ -104,9 +108,12 @@ impl CameraPose {
 pub struct CameraPipelineStats {
     /// Fixes that made a measurement.
     pub fixes: usize,
-    /// Fixes paired with the camera (the rest came before its first frame or after its last).
+    /// Fixes paired with the camera.
     pub fixes_paired: usize,
-    /// Fixes refused: no position, or not convertible to the `enu` frame.
+    /// Fixes that made a measurement but were not paired: in a gap of the frames, or where
+    /// the camera's position is not a finite number.
+    pub fixes_not_paired: usize,
+    /// Reports refused: no position, or not convertible to the `enu` frame.
     pub fixes_refused: usize,
     /// Reports of an epoch already used (another sentence of it).
     pub reports_of_used_epochs: usize,
@@ -209,10 +216,11 @@ impl CameraPipeline {
         self.alignment.as_ref()
     }
 
-    /// One frame, taken at host time `time_s`. Frames must come in time order; one that goes
-    /// back in time is not used (`None`).
+    /// One frame, taken at host time `time_s`. Frames must come in time order; one that does
+    /// not come after the last, or whose time is not a finite number, is not used (`None`),
+    /// so no two frames share a time.
     pub fn on_frame(&mut self, time_s: f64, image: &GrayImage) -> Option<FrameReport> {
-        if self.poses.last().is_some_and(|last| time_s <= last.time_s) {
+        if !time_s.is_finite() || self.poses.last().is_some_and(|last| time_s <= last.time_s) {
             return None;
         }
         let before = self.slam.stats();
@@ -292,19 +300,22 @@ impl CameraPipeline {
             }
             self.pending.pop_front();
             let Some((point_in_map, segment)) = self.map_position_at(time_s) else {
+                self.stats.fixes_not_paired += 1;
                 continue;
             };
             let pair = AlignmentPair::new(point_in_map, &measurement);
-            let origin = self
-                .fit
-                .origin()
-                .unwrap_or((pair.point_in_map, pair.point_in_enu));
-            let Segment { fit, span, .. } = &mut self.segments[segment];
-            let fit = fit.get_or_insert_with(|| SimilarityFit2d::with_origin(origin.0, origin.1));
-            if fit.add(&pair).is_err() || self.fit.add(&pair).is_err() {
-                self.stats.fixes_refused += 1;
+            // The run's fit first: its first pair sets the origin every segment's fit shares.
+            if self.fit.add(&pair).is_err() {
+                self.stats.fixes_not_paired += 1;
                 continue;
             }
+            let Some(origin) = self.fit.origin() else {
+                continue;
+            };
+            let Segment { fit, span, .. } = &mut self.segments[segment];
+            let fit = fit.get_or_insert_with(|| SimilarityFit2d::with_origin(origin.0, origin.1));
+            // The same pair the run's fit took: it cannot be refused here.
+            let _ = fit.add(&pair);
             self.stats.fixes_paired += 1;
             let [e, n] = measurement.position_in_enu_m;
             for span in [&mut self.span, span] {
@@ -318,8 +329,11 @@ impl CameraPipeline {
             }
             paired = true;
         }
-        if paired && self.spans_enough(self.span) {
-            self.alignment = self.fit.solve().ok();
+        if paired
+            && self.spans_enough(self.span)
+            && let Ok(alignment) = self.fit.solve()
+        {
+            self.alignment = Some(alignment);
         }
     }
 
@@ -340,11 +354,13 @@ impl CameraPipeline {
         let mut span: Option<[f64; 4]> = None;
         let mut queue = VecDeque::from([segment]);
         let mut seen = HashSet::from([segment]);
+        let mut taken = 0;
         while !self.spans_enough(span) {
             let Some(next) = queue.pop_front() else {
                 return Some(global);
             };
-            if seen.len() > MAX_SEGMENTS_PER_FIT {
+            taken += 1;
+            if taken > MAX_SEGMENTS_PER_FIT {
                 return Some(global);
             }
             let other = &self.segments[next];
@@ -378,13 +394,18 @@ impl CameraPipeline {
     }
 
     /// The indices of the frames about `time_s` and the weight of the later one; the first
-    /// or last frame alone outside them.
+    /// or last frame alone outside them, and the earlier frame alone where the two lie in
+    /// different segments (the path may jump between them). `None` without a frame within
+    /// [`CameraPipelineOptions::max_frame_gap_s`] of `time_s`.
     fn bracket(&self, time_s: f64) -> Option<(usize, usize, f64)> {
         let after = self.poses.partition_point(|p| p.time_s <= time_s);
         let last = self.poses.len().checked_sub(1)?;
-        Some(match after {
+        let (a, b, w) = match after {
             0 => (0, 0, 0.0),
             _ if after > last => (last, last, 0.0),
+            _ if self.pose_segments[after - 1] != self.pose_segments[after] => {
+                (after - 1, after - 1, 0.0)
+            }
             _ => {
                 let (a, b) = (&self.poses[after - 1], &self.poses[after]);
                 (
@@ -393,7 +414,11 @@ impl CameraPipeline {
                     (time_s - a.time_s) / (b.time_s - a.time_s),
                 )
             }
-        })
+        };
+        let gap_s = (time_s - self.poses[a].time_s)
+            .abs()
+            .min((self.poses[b].time_s - time_s).abs());
+        (gap_s <= self.options.max_frame_gap_s).then_some((a, b, w))
     }
 
     /// Whether poses are in the `enu` frame (the map aligned to GPS).
@@ -464,8 +489,8 @@ impl CameraPipeline {
         Some(points)
     }
 
-    /// Every frame's camera pose in the `enu` frame (east, north, up; the height from the
-    /// first camera's), each by its local map's alignment, once aligned.
+    /// Every frame's camera pose in the `enu` frame (east, north, and up from the first
+    /// camera's height), each by its segment's alignment, once aligned.
     pub fn trajectory_in_enu(&self) -> Option<Vec<CameraPose>> {
         let global = self.alignment?;
         // The first camera's axes (right, down, forward) to the map's (forward, left, up),

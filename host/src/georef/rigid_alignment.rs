@@ -92,10 +92,10 @@ pub struct RigidAlignment2d {
 
 /// A pair in solver form: map point, ENU point, information matrix.
 #[derive(Clone, Copy, Debug)]
-struct WeightedPair {
-    p: Vector2<f64>,
-    q: Vector2<f64>,
-    information: Matrix2<f64>,
+pub(super) struct WeightedPair {
+    pub(super) p: Vector2<f64>,
+    pub(super) q: Vector2<f64>,
+    pub(super) information: Matrix2<f64>,
 }
 
 /// The transform parameters `(x_m, y_m, theta_rad)` the solver works on, unwrapped.
@@ -188,8 +188,11 @@ impl RigidAlignment2d {
     }
 }
 
-/// Checks one pair and inverts its covariance.
-fn weighted_pair(index: usize, pair: &AlignmentPair) -> Result<WeightedPair, GeoRefError> {
+/// Checks one pair and inverts its covariance; `index` names the pair in the error.
+pub(super) fn weighted_pair(
+    index: usize,
+    pair: &AlignmentPair,
+) -> Result<WeightedPair, GeoRefError> {
     let [px, py] = pair.point_in_map;
     let [qx, qy] = pair.point_in_enu;
     if !(px.is_finite() && py.is_finite()) {

@@ -22,8 +22,9 @@
 //!
 //! Only the GPS side carries uncertainty; the map points are taken as exact.
 
-use nalgebra::{Matrix2, Matrix2x4, Matrix4, Vector2, Vector4};
+use nalgebra::{Matrix2x4, Matrix4, Vector2, Vector4};
 
+use super::rigid_alignment::{WeightedPair, weighted_pair};
 use super::{AlignmentPair, GeoRefError};
 
 /// The running sums of a weighted similarity fit. See the [module documentation](self).
@@ -68,8 +69,9 @@ pub struct SimilarityAlignment2d {
     pub rotation_rad: f64,
     /// Where the map's origin lies in the `enu` frame, m.
     pub translation_m: [f64; 2],
-    /// A priori covariance of `(t_x, t_y, a, b)`, with `t` the translation of the first
-    /// pair's map point (where the fit is best determined) rather than of the map's origin.
+    /// A priori covariance of `(t_x, t_y, a, b)`, with `t` the translation of the sums'
+    /// origin (the first pair's map point unless [`SimilarityFit2d::with_origin`] set
+    /// another) rather than of the map's origin.
     pub covariance: Matrix4<f64>,
     /// Root mean square of the residual lengths, metres.
     pub rms_residual_m: f64,
@@ -150,30 +152,12 @@ impl SimilarityFit2d {
     /// (with the index the pair gets) for a covariance that is not finite, symmetric and
     /// positive definite; the fit is unchanged then.
     pub fn add(&mut self, pair: &AlignmentPair) -> Result<(), GeoRefError> {
-        let [px, py] = pair.point_in_map;
-        let [qx, qy] = pair.point_in_enu;
-        if !(px.is_finite() && py.is_finite()) {
-            return Err(GeoRefError::NonFinite("a map point of the alignment"));
-        }
-        if !(qx.is_finite() && qy.is_finite()) {
-            return Err(GeoRefError::NonFinite("an ENU point of the alignment"));
-        }
-        let covariance = pair.covariance_in_enu_m2;
-        let invalid = GeoRefError::InvalidCovariance { index: self.pairs };
-        if !covariance.iter().all(|v| v.is_finite())
-            || (covariance[(0, 1)] - covariance[(1, 0)]).abs() > 1e-9 * covariance.abs().max()
-        {
-            return Err(invalid);
-        }
-        let information: Matrix2<f64> = covariance.cholesky().ok_or(invalid)?.inverse();
-        if !information.iter().all(|v| v.is_finite()) {
-            return Err(GeoRefError::InvalidCovariance { index: self.pairs });
-        }
-        let ([p0x, p0y], [q0x, q0y]) = *self
+        let WeightedPair { p, q, information } = weighted_pair(self.pairs, pair)?;
+        let (p0, q0) = *self
             .origin
             .get_or_insert((pair.point_in_map, pair.point_in_enu));
-        let j = jacobian(Vector2::new(px - p0x, py - p0y));
-        let q = Vector2::new(qx - q0x, qy - q0y);
+        let j = jacobian(p - Vector2::from(p0));
+        let q = q - Vector2::from(q0);
         let jt_w = j.transpose() * information;
         self.normal += jt_w * j;
         self.rhs += jt_w * q;
@@ -203,7 +187,9 @@ impl SimilarityFit2d {
         ) / n;
         let spread_m2 = self.normal_unweighted[(2, 2)] / n - mean.norm_squared();
         let ([p0x, p0y], [q0x, q0y]) = self.origin.unwrap_or_default();
-        if spread_m2.is_nan() || spread_m2.max(0.0).sqrt() <= 1e-9 * (1.0 + p0x.hypot(p0y)) {
+        // Relative to the points' distance from the map's origin, where rounding sets in.
+        let reach_m = 1.0 + p0x.hypot(p0y) + mean.norm();
+        if spread_m2.is_nan() || spread_m2.max(0.0).sqrt() <= 1e-9 * reach_m {
             return Err(GeoRefError::DegenerateGeometry);
         }
         let covariance = self
@@ -246,6 +232,7 @@ impl SimilarityFit2d {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix2;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};
