@@ -125,18 +125,20 @@ pub fn write_camera_outputs(
     pipeline: &CameraPipeline,
     records: &[CameraRecord],
 ) -> io::Result<()> {
-    let (poses, frame) = match pipeline.trajectory_in_enu() {
+    // The path in the world frame, once: for the TUM file and for the WGS84 exports.
+    let in_enu = pipeline.trajectory_in_enu();
+    let (poses, frame) = match &in_enu {
         Some(poses) => (
-            poses,
+            poses.as_slice(),
             "world frame: east and north at the datum by GPS, up from the first camera's height",
         ),
         None => (
-            pipeline.poses().to_vec(),
+            pipeline.poses(),
             "the first camera's frame (x right, y down, z forward), no metric scale: GPS \
              never spanned enough to align it",
         ),
     };
-    write_tum(&out.join("camera_trajectory.tum"), frame, &poses)?;
+    write_tum(&out.join("camera_trajectory.tum"), frame, poses)?;
     let truth: Vec<CameraPose> = records
         .iter()
         .map(|r| CameraPose {
@@ -150,11 +152,9 @@ pub fn write_camera_outputs(
         "world frame: east, north, up at the datum",
         &truth,
     )?;
-    let (Some(frame), Some(in_enu), Some(points)) = (
-        pipeline.local_frame(),
-        pipeline.trajectory_in_enu(),
-        pipeline.map_points_in_enu(),
-    ) else {
+    let (Some(frame), Some(in_enu), Some(points)) =
+        (pipeline.local_frame(), in_enu, pipeline.map_points_in_enu())
+    else {
         return Ok(());
     };
     let path: Vec<[f64; 2]> = in_enu
