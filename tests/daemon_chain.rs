@@ -83,6 +83,7 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
         out: out.clone(),
         realtime: false,
         linger_s: 0.0,
+        camera: None,
     };
     let report = demo::run(&options, |ready| {
         let addr = ready.web.expect("the web view runs");
@@ -220,6 +221,7 @@ fn demo_indoor_builds_an_occupancy_grid() {
         out: out.clone(),
         realtime: false,
         linger_s: 0.0,
+        camera: None,
     };
     let report = demo::run(&options, |_| {}).expect("the demo runs");
     assert!(report.daemon_scans > 300, "{report:#?}");

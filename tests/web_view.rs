@@ -6,8 +6,9 @@
 //! DevTools protocol: the page must show the counters from the state and follow them when they
 //! change, draw the map over the image where `pixel_from_map` puts it, set the goal where the
 //! image is clicked (checked against the state and the goal resolver), and show the resolver's
-//! refusal for a click outside the map and outside the image. A screenshot is left in
-//! `target/tmp/web_view.png`.
+//! refusal for a click outside the map and outside the image. With a camera, the panel must
+//! show its newest frame with each feature's search ellipse and the corners found moving. The
+//! screenshots are left in `target/tmp/`.
 //!
 //! Without `/usr/bin/chromium` the test prints that it skipped; with `CI` set it fails instead.
 
@@ -22,7 +23,9 @@ use std::time::{Duration, Instant};
 use headless_chrome::browser::tab::point::Point;
 use headless_chrome::protocol::cdp::Page::CaptureScreenshotFormatOption;
 use headless_chrome::{Browser, LaunchOptions, Tab};
-use robot_host::state::{GridView, ImageView, LandmarkView};
+use robot_host::state::{
+    CameraFeatureView, CameraStatus, CameraView, GridView, ImageView, LandmarkView,
+};
 use robot_host::web::{AccessPolicy, WebContext, WebLimits, WebServer};
 use robot_host::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
@@ -733,6 +736,111 @@ fn web_view_without_image() -> TestResult {
     assert!(session.resolver.requests().is_empty());
     assert_eq!(stored_goal(&session.state), None);
     session.screenshot("web_view_without_image")?;
+    session.close();
+    Ok(())
+}
+
+/// The camera panel's canvas colour at pixel `[x, y]` of the frame it draws.
+fn camera_rgb(tab: &Tab, [x, y]: [u32; 2]) -> Result<[u8; 3], Box<dyn Error + Send + Sync>> {
+    let expression = format!(
+        "(() => {{ const d = document.getElementById('camera').getContext('2d')\
+         .getImageData({x}, {y}, 1, 1).data; return `${{d[0]}},${{d[1]}},${{d[2]}}`; }})()"
+    );
+    let value = evaluate(tab, &expression)?;
+    let channels: Vec<u8> = value
+        .as_str()
+        .unwrap_or_default()
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()?;
+    channels
+        .try_into()
+        .map_err(|c| format!("not a colour: {c:?}").into())
+}
+
+/// A 320 × 240 grey frame: a dark left half and a light right half.
+fn camera_frame_jpeg() -> Vec<u8> {
+    let frame = image::GrayImage::from_fn(320, 240, |x, _| {
+        image::Luma([if x < 160 { 40 } else { 200 }])
+    });
+    robot_host::camera_capture::encode_jpeg(&frame, 90).expect("a JPEG")
+}
+
+/// The camera panel: the newest frame, each feature's 3σ search ellipse, the corners found
+/// moving, and the method's counts.
+#[test]
+fn web_view_camera() -> TestResult {
+    let mut state = filled_state();
+    state.camera = Some(CameraView {
+        jpeg: Arc::new(camera_frame_jpeg()),
+        status: CameraStatus {
+            source: "/dev/video0".to_owned(),
+            frame: 7,
+            time_s: 12.5,
+            size_px: [320, 240],
+            frames_captured: 9,
+            frames_skipped: 2,
+            frames_refused: 0,
+            tracking: true,
+            // 4 px standard deviation on each axis: the 3σ ellipse is a 12-px circle.
+            features: vec![CameraFeatureView {
+                pixel: [100.0, 120.0],
+                covariance_px2: [16.0, 0.0, 16.0],
+            }],
+            measured: 1,
+            added: Vec::new(),
+            moving: vec![[[250.0, 60.0], [230.0, 60.0]]],
+            local_maps: 2,
+            places_recognised: 1,
+            rejected_as_moving: 3,
+            scale_from_gps: Some(1.25),
+        },
+    });
+    let Some(session) = Session::open("web_view_camera", state, Some(generated_image_png()))?
+    else {
+        return Ok(());
+    };
+    let tab = &session.tab;
+    wait_until(tab, "the camera panel", &shown("camera-panel"))?;
+    wait_until(
+        tab,
+        "the camera frame",
+        "document.getElementById('camera').width === 320",
+    )?;
+    assert_eq!(
+        number(tab, "document.getElementById('camera').height")?,
+        240.0
+    );
+    // The frame itself, away from the drawings.
+    let dark = camera_rgb(tab, [40, 200])?;
+    let light = camera_rgb(tab, [300, 200])?;
+    assert!(dark.iter().all(|&c| c.abs_diff(40) <= 10), "{dark:?}");
+    assert!(light.iter().all(|&c| c.abs_diff(200) <= 10), "{light:?}");
+    // The feature's search ellipse, 12 px about its pixel; not inside it.
+    let feature_yellow = [0xff, 0xd2, 0x1f];
+    let on_ellipse = camera_rgb(tab, [112, 120])?;
+    assert!(colour_is_near(on_ellipse, feature_yellow), "{on_ellipse:?}");
+    let inside = camera_rgb(tab, [106, 120])?;
+    assert!(inside.iter().all(|&c| c.abs_diff(40) <= 10), "{inside:?}");
+    // The moving corner in blue, and its way from where it was.
+    let moving_blue = [0x2f, 0x7d, 0xff];
+    for at in [[250, 60], [240, 60]] {
+        let colour = camera_rgb(tab, at)?;
+        assert!(colour_is_near(colour, moving_blue), "{at:?}: {colour:?}");
+    }
+    let note = text(tab, "camera-note")?;
+    for part in [
+        "/dev/video0: frame 7",
+        "1 features looked for, 1 measured",
+        "2 local maps",
+        "1 places recognised",
+        "3 rejected as moving",
+        "1.250 m per map unit from GPS",
+        "2 frames skipped",
+    ] {
+        assert!(note.contains(part), "{part:?} in {note:?}");
+    }
+    session.screenshot("web_view_camera")?;
     session.close();
     Ok(())
 }

@@ -6,12 +6,22 @@
 //! The world's run is [`crate::run`]'s lock-step chain paced at the wall clock; its host link
 //! is passed on through a second pseudo-terminal, which the daemon opens as its serial port
 //! exactly as it opens the board's on the robot.
+//!
+//! With the camera ([`DemoOptions::camera`], outdoors) the robot computer's camera is rendered
+//! at the true pose of each frame's time and handed to the daemon as its camera
+//! ([`SimulatedCamera`]): 8-bit grey frames, which the daemon's capture code takes as it takes
+//! a grey camera's, and the daemon runs the camera method on them with the board's GPS.
 
 use std::fs;
 use std::io;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
+
+use host::camera::{CameraPipeline, PinholeCamera};
+use robot_host::camera_capture::{CaptureError, FrameSource, PixelFormat, RawFrame};
 
 use host::geoimage::{GeoImage, GeographicGeoref, write_geotiff_geographic_rgb8};
 use robot_host::LinkCounters;
@@ -22,6 +32,9 @@ use serde::Serialize;
 
 use crate::faults::FaultSpec;
 use crate::pty::PtyLink;
+use crate::run::camera_feed::{CameraFrame, CameraRunOptions};
+use crate::run::camera_outcome::CameraOutcome;
+use crate::run::host_side::CameraRecord;
 use crate::run::{RunOptions, RunSummary, run_relayed};
 use crate::world::aerial::render_aerial;
 use crate::world::{Scenario, WorldKind};
@@ -50,6 +63,9 @@ pub struct DemoOptions {
     pub realtime: bool,
     /// After the drive, keep the web view up this many seconds before writing the outputs.
     pub linger_s: f64,
+    /// The robot computer's camera and the camera method (outdoors); `None`: the laser
+    /// method.
+    pub camera: Option<CameraRunOptions>,
 }
 
 impl Default for DemoOptions {
@@ -63,6 +79,7 @@ impl Default for DemoOptions {
             out: PathBuf::from("demo-out"),
             realtime: true,
             linger_s: 0.0,
+            camera: None,
         }
     }
 }
@@ -82,12 +99,84 @@ pub struct DemoReport {
     pub daemon_scans: usize,
     /// Whether the map was geo-referenced by GPS.
     pub geo_referenced: bool,
-    /// Landmarks mapped (outdoors).
+    /// Landmarks mapped (outdoors; the map's points with the camera method).
     pub landmarks: usize,
+    /// The camera, with the camera method.
+    pub camera: Option<DemoCameraReport>,
     /// The files written.
     pub outputs: Vec<PathBuf>,
     /// The simulation's own accounting of the run (emulators, firmware, link).
     pub simulation: RunSummary,
+}
+
+/// What the daemon's camera did, and how its path compares with the truth.
+#[derive(Debug, Clone, Serialize)]
+pub struct DemoCameraReport {
+    /// Frames rendered and handed to the daemon.
+    pub frames_sent: u64,
+    /// Frames the daemon's capture took.
+    pub frames_captured: u64,
+    /// Frames the camera method tracked.
+    pub frames_tracked: usize,
+    /// Frames the camera method was still busy for.
+    pub frames_skipped: u64,
+    /// Local maps started.
+    pub local_maps: usize,
+    /// Places of earlier local maps recognised.
+    pub places_recognised: usize,
+    /// GPS fixes paired with the camera.
+    pub fixes_paired: usize,
+    /// The map's scale from GPS, metres per map unit, once aligned.
+    pub scale_from_gps: Option<f64>,
+    /// Map points.
+    pub map_points: usize,
+    /// How far the run fell behind the wall clock at its worst, s: the daemon stamps frames
+    /// on the wall clock and fixes through the board's clock, which follows the run, so a
+    /// machine too busy to keep pace skews the one against the other.
+    pub run_behind_wall_clock_max_s: f64,
+    /// The frames the camera method tracked, scored against their truth: the path once GPS
+    /// placed it, the map's scale from GPS against the truth's (`None` if a tracked frame
+    /// was not one the run took, which would be a fault of the chain).
+    pub against_truth: Option<CameraOutcome>,
+}
+
+/// The rendered camera as the daemon's camera: each frame the run hands over, as 8-bit grey,
+/// taken when the run's clock reached its time. It keeps each frame's truth.
+pub struct SimulatedCamera {
+    frames: Receiver<CameraFrame>,
+    truth: Arc<Mutex<Vec<(Instant, CameraRecord)>>>,
+}
+
+impl FrameSource for SimulatedCamera {
+    fn next_frame(&mut self) -> Result<Option<RawFrame>, CaptureError> {
+        // The run has ended when it drops its end.
+        let Ok(frame) = self.frames.recv() else {
+            return Ok(None);
+        };
+        self.truth
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push((
+                frame.taken_at,
+                CameraRecord {
+                    t_s: frame.t_s,
+                    position_m: frame.position_m,
+                    orientation: frame.orientation,
+                },
+            ));
+        let (width_px, height_px) = frame.image.dimensions();
+        Ok(Some(RawFrame {
+            captured_at: Some(frame.taken_at),
+            format: PixelFormat::Grey,
+            width_px,
+            height_px,
+            bytes: frame.image.into_raw(),
+        }))
+    }
+
+    fn name(&self) -> String {
+        "hil-sim camera".into()
+    }
 }
 
 /// Something the demo needs while it runs: the web view's address once it is up.
@@ -113,10 +202,16 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
             "the duration must be a positive number of seconds",
         ));
     }
+    if options.camera.is_some() && options.world != WorldKind::Outdoor {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "the camera method runs outdoors (the indoor world has no texture to track)",
+        ));
+    }
     fs::create_dir_all(&options.out)?;
     let DaemonSetup {
         relay,
-        config,
+        mut config,
         image: image_path,
     } = DaemonSetup::prepare(
         options.world,
@@ -131,7 +226,23 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         path: config.link.port.clone(),
         baud: config.link.baud,
     };
-    let daemon = Daemon::start(&config, Box::new(opener)).map_err(io::Error::other)?;
+    let camera_truth = Arc::new(Mutex::new(Vec::new()));
+    let (camera_tx, camera) = match &options.camera {
+        Some(camera) => {
+            set_camera(&mut config, &camera.rig.camera);
+            // Two frames in hand: the run waits rather than drop a frame the capture has
+            // not yet taken.
+            let (tx, rx) = mpsc::sync_channel(2);
+            let source = SimulatedCamera {
+                frames: rx,
+                truth: camera_truth.clone(),
+            };
+            (Some(tx), Some(Box::new(source) as Box<dyn FrameSource>))
+        }
+        None => (None, None),
+    };
+    let daemon =
+        Daemon::start_with_camera(&config, Box::new(opener), camera).map_err(io::Error::other)?;
     ready(&DemoReady {
         web: daemon.web_addr(),
         foxglove: daemon.foxglove_addr(),
@@ -147,12 +258,12 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         realtime: options.realtime,
         hardware: None,
         grid_every_scan: false,
-        camera: None,
+        camera: options.camera,
     };
     // The pty's device end stays open until the daemon has read everything: closing it hangs
     // the line up, and the frames still in the board end's buffer would be lost.
     let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;
-    let simulation = run_relayed(&run_options, relay);
+    let simulation = run_relayed(&run_options, relay, camera_tx);
     // The daemon reads on its own thread: give it the frames the simulation's side read.
     if let Ok(summary) = &simulation {
         let state = daemon.state();
@@ -167,6 +278,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     }
     std::thread::sleep(Duration::from_secs_f64(options.linger_s.max(0.0)));
     let web = daemon.web_addr().map(|a| format!("http://{a}/"));
+    let clock = daemon.clock();
     let outcome = daemon.stop().map_err(io::Error::other)?;
     drop(device_end);
     let simulation = simulation?;
@@ -194,10 +306,35 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
         daemon_counters: outcome.state.counters,
         daemon_scans,
         geo_referenced: outcome.state.enu_from_map.is_some(),
-        landmarks: outcome
-            .ekf
-            .as_ref()
-            .map_or(0, |e| e.landmarks_in_map().len()),
+        landmarks: outcome.ekf.as_ref().map_or_else(
+            || {
+                outcome
+                    .camera
+                    .as_ref()
+                    .map_or(0, |c| c.slam().map_points().len())
+            },
+            |e| e.landmarks_in_map().len(),
+        ),
+        camera: outcome.camera.as_ref().map(|pipeline| {
+            let status = outcome.state.camera.as_ref().map(|c| &c.status);
+            let stats = pipeline.slam_stats();
+            let truth = camera_truth.lock().unwrap_or_else(PoisonError::into_inner);
+            DemoCameraReport {
+                frames_sent: truth.len() as u64,
+                frames_captured: status.map_or(0, |s| s.frames_captured),
+                frames_tracked: pipeline.poses().len(),
+                frames_skipped: status.map_or(0, |s| s.frames_skipped),
+                local_maps: stats.local_maps,
+                places_recognised: stats.places_recognised,
+                fixes_paired: pipeline.stats().fixes_paired,
+                scale_from_gps: pipeline.alignment().map(|a| a.scale),
+                map_points: pipeline.slam().map_points().len(),
+                run_behind_wall_clock_max_s: behind_wall_clock_s(&truth),
+                against_truth: Some(tracked_truth(pipeline, &truth, clock))
+                    .filter(|records| records.len() == pipeline.poses().len())
+                    .map(|records| CameraOutcome::new(pipeline, &records)),
+            }
+        }),
         outputs,
         simulation,
     })
@@ -260,6 +397,54 @@ impl DaemonSetup {
             image,
         })
     }
+}
+
+/// The truth of the frames the camera method tracked, in its order: each frame's host time
+/// is the time since `clock` the frame was taken.
+fn tracked_truth(
+    pipeline: &CameraPipeline,
+    truth: &[(Instant, CameraRecord)],
+    clock: Instant,
+) -> Vec<CameraRecord> {
+    let mut frames = truth.iter().peekable();
+    pipeline
+        .poses()
+        .iter()
+        .filter_map(|pose| {
+            let same = |(at, _): &&(Instant, CameraRecord)| {
+                at.checked_duration_since(clock)
+                    .is_some_and(|d| (d.as_secs_f64() - pose.time_s).abs() < 1e-6)
+            };
+            // The frames skipped come between those tracked.
+            while frames.next_if(|f| !same(f)).is_some() {}
+            frames.next().map(|(_, record)| *record)
+        })
+        .collect()
+}
+
+/// How far the run's frames were taken behind their time on the wall clock, at most,
+/// measured from the first frame, s.
+fn behind_wall_clock_s(truth: &[(Instant, CameraRecord)]) -> f64 {
+    let Some((first_at, first)) = truth.first() else {
+        return 0.0;
+    };
+    truth
+        .iter()
+        .map(|(at, record)| {
+            at.saturating_duration_since(*first_at).as_secs_f64() - (record.t_s - first.t_s)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Gives `config` the rendered camera and the camera method.
+fn set_camera(config: &mut DaemonConfig, camera: &PinholeCamera) {
+    config.slam.method = SlamMethod::Camera;
+    config.camera.device = Some("hil-sim camera".into());
+    config.camera.width_px = camera.width_px;
+    config.camera.height_px = camera.height_px;
+    config.camera.intrinsics_px = [camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px];
+    let ([k1, k2, k3], [p1, p2]) = (camera.radial, camera.tangential);
+    config.camera.distortion = [k1, k2, p1, p2, k3];
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.

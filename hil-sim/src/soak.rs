@@ -266,7 +266,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     // The device end stays open until the daemon has read everything (see `demo`).
     let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;
     let simulation = std::thread::scope(|scope| {
-        let chain = scope.spawn(|| run_relayed(&run_options, relay));
+        let chain = scope.spawn(|| run_relayed(&run_options, relay, None));
         let mut shown = 0;
         while !chain.is_finished() {
             std::thread::sleep(Duration::from_millis(200));

@@ -4,13 +4,16 @@
 use std::path::PathBuf;
 
 use super::CliResult;
+use super::camera_args::CameraArgs;
 
 /// The whole system, no hardware and no data files: a seeded world with a generated,
 /// geo-referenced aerial image; emulated laser and GPS → the firmware tasks on the host →
 /// a pty → the robot-host daemon, which maps (EKF with GPS outdoors, occupancy grid
-/// indoors), records to MCAP and serves the web view, whose address it prints. At the end
-/// OUT holds the map PNG, the map over the image, the trajectory, GeoJSON/KML, the MCAP
-/// recording and a summary; the report is printed as JSON.
+/// indoors), records to MCAP and serves the web view, whose address it prints. With
+/// `--method camera` (outdoors) the robot computer's camera is rendered too, and the daemon
+/// runs the camera method on its frames with the board's GPS, shows them with the tracked
+/// features and records them. At the end OUT holds the map PNG, the map over the image, the
+/// trajectory, GeoJSON/KML, the MCAP recording and a summary; the report is printed as JSON.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
     /// The world: `outdoor` (a park with trees and a building, GPS, aerial image) or
@@ -23,6 +26,8 @@ pub struct DemoArgs {
     /// Seconds of driving.
     #[arg(long, default_value_t = 60.0)]
     duration: f64,
+    #[command(flatten)]
+    camera: CameraArgs,
     /// Address of the web view (port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:8080")]
     serve: std::net::SocketAddr,
@@ -51,6 +56,7 @@ pub fn run(args: DemoArgs) -> CliResult {
         out: args.out,
         realtime: !args.fast,
         linger_s: args.linger,
+        camera: args.camera.options()?,
     };
     let report = hil_sim::demo::run(&options, |ready| {
         if let Some(web) = ready.web {

@@ -7,6 +7,7 @@
 pub mod bench_match;
 pub mod bench_slam;
 pub mod bringup;
+pub mod camera_args;
 pub mod decode_nmea;
 pub mod decode_sick;
 pub mod demo;

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use super::CliResult;
+use super::camera_args::CameraArgs;
 use super::hardware::HardwareArgs;
 use super::report::report;
 
@@ -34,18 +35,8 @@ pub struct RunArgs {
     /// and a building; GPS has a fix).
     #[arg(long, default_value = "indoor")]
     world: hil_sim::world::WorldKind,
-    /// What estimates the robot: `laser` (the world's laser method: the occupancy grid
-    /// indoors, the EKF on trees with GPS outdoors) or `camera` (needs `--world outdoor`:
-    /// the camera method on the robot computer's camera, with GPS).
-    #[arg(long, value_enum, default_value_t = Method::Laser)]
-    method: Method,
-    /// Camera frames per second (`--method camera`) [default: 10]. At most a day's worth
-    /// of frames (864 000) per run.
-    #[arg(long)]
-    camera_rate: Option<f64>,
-    /// People walking about near the route, seen by the camera (`--method camera`).
-    #[arg(long, default_value_t = 0)]
-    movers: usize,
+    #[command(flatten)]
+    camera: CameraArgs,
     /// Seed of the world, the route, the sensor noise and the faults.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -91,29 +82,9 @@ pub struct RunArgs {
     grid_every_scan: bool,
 }
 
-/// What estimates the robot in a run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Method {
-    /// The world's laser method.
-    Laser,
-    /// The camera method with GPS (outdoors).
-    Camera,
-}
-
 /// Runs the chain and reports its summary; with `--qemu`, also what the image measured.
 pub fn run(args: RunArgs) -> CliResult {
-    if args.method == Method::Laser && (args.movers > 0 || args.camera_rate.is_some()) {
-        return Err(
-            "--movers and --camera-rate are the camera's: they need --method camera".into(),
-        );
-    }
-    let camera = (args.method == Method::Camera).then(|| hil_sim::run::CameraRunOptions {
-        rate_hz: args
-            .camera_rate
-            .unwrap_or(hil_sim::run::CameraRunOptions::default().rate_hz),
-        movers: args.movers,
-        ..hil_sim::run::CameraRunOptions::default()
-    });
+    let camera = args.camera.options()?;
     let options = hil_sim::run::RunOptions {
         world: args.world,
         seed: args.seed,

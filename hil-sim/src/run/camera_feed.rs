@@ -2,6 +2,12 @@
 //! set rate, handed straight to the robot computer (a camera plugs into it, not into the
 //! board), stamped on its clock.
 
+use std::io;
+use std::sync::mpsc::{self, Receiver};
+use std::thread;
+use std::time::Instant;
+
+use host::camera::PinholeCamera;
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -39,52 +45,92 @@ pub struct CameraFrame {
     pub position_m: Vector3<f64>,
     /// The camera's true `world_from_camera`.
     pub orientation: UnitQuaternion<f64>,
+    /// The wall-clock instant the run took it (its clock reached the frame's time): on a
+    /// run paced at the wall clock, when the camera took it.
+    pub taken_at: Instant,
 }
 
-/// Renders the frames as the run's clock reaches their times.
+/// Frames rendered ahead of the run's clock, at most this many.
+const RENDERED_AHEAD: usize = 3;
+
+/// The frames of a run, in order. A thread of its own renders them ahead of the run's clock
+/// (what a frame shows depends only on the route, the walkers and its time), so rendering
+/// runs beside the chain rather than in its steps; the run takes each frame when its clock
+/// reaches the frame's time.
 #[derive(Debug)]
 pub struct CameraFeed {
-    view: CameraView,
-    walkers: Walkers,
+    camera: PinholeCamera,
     period_us: f64,
     next_frame: u64,
+    /// The renderer's frames; it stops when this end is dropped.
+    frames: Receiver<CameraFrame>,
 }
 
 impl CameraFeed {
     /// The camera of `options` in `scenario`'s world, its first frame at time 0.
-    pub fn new(scenario: &Scenario, options: &CameraRunOptions, seed: u64) -> Self {
-        CameraFeed {
-            view: CameraView::new(scenario, options.rig),
-            walkers: Walkers::new(scenario, options.movers, seed),
-            period_us: 1e6 / options.rate_hz,
+    ///
+    /// # Errors
+    /// The renderer's thread cannot be started.
+    pub fn new(scenario: &Scenario, options: &CameraRunOptions, seed: u64) -> io::Result<Self> {
+        let view = CameraView::new(scenario, options.rig);
+        let walkers = Walkers::new(scenario, options.movers, seed);
+        let trajectory = scenario.trajectory().clone();
+        let camera = *view.camera();
+        let period_us = 1e6 / options.rate_hz;
+        let (tx, frames) = mpsc::sync_channel(RENDERED_AHEAD);
+        thread::Builder::new()
+            .name("camera-render".into())
+            .spawn(move || {
+                for index in 0u64.. {
+                    let frame = render(&view, &walkers, &trajectory, index, period_us);
+                    if tx.send(frame).is_err() {
+                        break;
+                    }
+                }
+            })?;
+        Ok(CameraFeed {
+            camera,
+            period_us,
             next_frame: 0,
-        }
+            frames,
+        })
     }
 
     /// The camera.
     pub fn camera(&self) -> &host::camera::PinholeCamera {
-        self.view.camera()
+        &self.camera
     }
 
-    /// The next frame if its time is at or before `t_us`, the robot moving along
-    /// `trajectory`.
-    pub fn due(&mut self, t_us: u64, trajectory: &Trajectory) -> Option<CameraFrame> {
+    /// The next frame if its time is at or before `t_us`.
+    pub fn due(&mut self, t_us: u64) -> Option<CameraFrame> {
         let at_us = self.next_frame as f64 * self.period_us;
         if at_us > t_us as f64 {
             return None;
         }
-        let t_s = at_us * 1e-6;
-        let state = trajectory.pose_at(t_s);
-        let image = self
-            .view
-            .render(&state, &self.walkers.at(t_s), self.next_frame);
-        let (position_m, orientation) = self.view.camera_pose(&state);
+        let mut frame = self.frames.recv().ok()?;
+        frame.taken_at = Instant::now();
         self.next_frame += 1;
-        Some(CameraFrame {
-            t_s,
-            image,
-            position_m,
-            orientation,
-        })
+        Some(frame)
+    }
+}
+
+/// Frame `index` of a camera at `period_us`, the robot moving along `trajectory`.
+fn render(
+    view: &CameraView,
+    walkers: &Walkers,
+    trajectory: &Trajectory,
+    index: u64,
+    period_us: f64,
+) -> CameraFrame {
+    let t_s = index as f64 * period_us * 1e-6;
+    let state = trajectory.pose_at(t_s);
+    let image = view.render(&state, &walkers.at(t_s), index);
+    let (position_m, orientation) = view.camera_pose(&state);
+    CameraFrame {
+        t_s,
+        image,
+        position_m,
+        orientation,
+        taken_at: Instant::now(),
     }
 }

@@ -335,6 +335,8 @@ pub struct Engine<'c, W: World> {
     realtime: Option<Instant>,
     gps_replay: Option<GpsReplay>,
     relay: Option<Endpoint>,
+    /// Where the camera's frames go instead of the host side ([`Engine::relay_camera`]).
+    camera_relay: Option<std::sync::mpsc::SyncSender<super::camera_feed::CameraFrame>>,
 }
 
 /// Where a run stands.
@@ -415,7 +417,17 @@ impl<'c, W: World> Engine<'c, W> {
             realtime: realtime.then(Instant::now),
             gps_replay: None,
             relay: None,
+            camera_relay: None,
         }
+    }
+
+    /// Hands the camera's frames to another program (the daemon's camera) through `frames`
+    /// instead of the in-process host side, as a camera plugged into the robot computer does.
+    pub fn relay_camera(
+        &mut self,
+        frames: std::sync::mpsc::SyncSender<super::camera_feed::CameraFrame>,
+    ) {
+        self.camera_relay = Some(frames);
     }
 
     /// Passes the host link on to another program through `link` (a pty whose other end it
@@ -668,8 +680,14 @@ impl<'c, W: World> Engine<'c, W> {
         wrote |= self.emit_laser(t_us)?;
         // The camera is the robot computer's: its frames go to the host, not the board.
         if let Some(camera) = self.sensors.camera.as_mut() {
-            while let Some(frame) = camera.due(t_us, &self.sensors.trajectory) {
-                self.host.camera_frame(frame);
+            while let Some(frame) = camera.due(t_us) {
+                match &self.camera_relay {
+                    // A daemon that has stopped taking frames has stopped: nothing to hand on.
+                    Some(frames) => {
+                        let _ = frames.send(frame);
+                    }
+                    None => self.host.camera_frame(frame),
+                }
             }
         }
         let runs = self.sensors.gps.poll_output_runs(t_us);

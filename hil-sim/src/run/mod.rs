@@ -43,6 +43,7 @@ pub mod tap;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::SyncSender;
 
 use firmware::sick::BringUpConfig;
 use firmware::tasks::gps::GpsOptions;
@@ -60,8 +61,8 @@ use crate::replay::{
 };
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
-use camera_feed::CameraFeed;
 pub use camera_feed::CameraRunOptions;
+use camera_feed::{CameraFeed, CameraFrame};
 use engine::{Endpoint, Engine, Sensors, Wiring};
 pub use engine::{Line, ReportedBaud};
 use estimator::Estimator;
@@ -187,15 +188,22 @@ pub fn run_with_bring_up(
 ///
 /// # Errors
 /// As [`run`].
-pub fn run_relayed(options: &RunOptions, relay: PtyLink) -> io::Result<RunSummary> {
-    run_chain(options, None, None, Some(relay))
+pub fn run_relayed(
+    options: &RunOptions,
+    relay: PtyLink,
+    camera_relay: Option<SyncSender<CameraFrame>>,
+) -> io::Result<RunSummary> {
+    run_chain(options, None, None, Some((relay, camera_relay)))
 }
+
+/// The host link and, with the camera, its frames, passed on to another program.
+type Relay = (PtyLink, Option<SyncSender<CameraFrame>>);
 
 fn run_chain(
     options: &RunOptions,
     lines: Option<WallLines>,
     bring_up: Option<BringUpConfig>,
-    relay: Option<PtyLink>,
+    relay: Option<Relay>,
 ) -> io::Result<RunSummary> {
     check_duration(options.duration_s)?;
     let outdoor = options.world == WorldKind::Outdoor;
@@ -258,7 +266,8 @@ fn run_chain(
         camera: options
             .camera
             .as_ref()
-            .map(|camera| CameraFeed::new(&scenario, camera, options.seed)),
+            .map(|camera| CameraFeed::new(&scenario, camera, options.seed))
+            .transpose()?,
     };
     let (summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
     write_outputs(&options.out, &received, &summary)?;
@@ -522,7 +531,7 @@ fn execute(
     options: &RunOptions,
     duration_s: f64,
     lines: Option<WallLines>,
-    relay: Option<PtyLink>,
+    relay: Option<Relay>,
 ) -> io::Result<(RunSummary, Received)> {
     let mut gps_options = GpsEmulatorOptions {
         seed: options.seed ^ 0x6750,
@@ -534,7 +543,9 @@ fn execute(
         gps_options.rate_hz = gps_rate_for(lines.gps_baud);
     }
     let datum = [chain.datum.lat_deg, chain.datum.lon_deg];
-    let estimator = if let Some(camera) = &chain.camera {
+    // A camera relayed to another program is that program's: this side maps with the laser.
+    let camera_relayed = relay.as_ref().is_some_and(|(_, camera)| camera.is_some());
+    let estimator = if let Some(camera) = chain.camera.as_ref().filter(|_| !camera_relayed) {
         Estimator::camera(*camera.camera(), datum)?
     } else if chain.uses_landmarks {
         Estimator::ekf(datum)
@@ -607,8 +618,11 @@ fn execute(
         host,
         options.realtime,
     );
-    if let Some(relay) = relay {
+    if let Some((relay, camera)) = relay {
         engine.relay_host_link(relay);
+        if let Some(camera) = camera {
+            engine.relay_camera(camera);
+        }
     }
     let outcome = engine.run(duration_us);
     board.stop();

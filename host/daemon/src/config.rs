@@ -24,6 +24,9 @@ pub enum SlamMethod {
     Grid,
     /// Both; the EKF owns the pose shown, the grid pipeline the occupancy grid.
     Both,
+    /// The camera method (a single camera's EKF SLAM with local maps, geo-referenced by GPS)
+    /// owns the pose and the map; it needs `[camera] device`. The laser is read and recorded.
+    Camera,
     /// None: read, record and show the link only.
     None,
 }
@@ -48,9 +51,10 @@ impl std::str::FromStr for SlamMethod {
             "ekf" => Ok(SlamMethod::Ekf),
             "grid" => Ok(SlamMethod::Grid),
             "both" => Ok(SlamMethod::Both),
+            "camera" => Ok(SlamMethod::Camera),
             "none" => Ok(SlamMethod::None),
             other => Err(format!(
-                "unknown SLAM method {other:?}: expected ekf, grid, both or none"
+                "unknown SLAM method {other:?}: expected ekf, grid, both, camera or none"
             )),
         }
     }
@@ -250,6 +254,58 @@ impl Default for GeorefConfig {
     }
 }
 
+/// The camera on the robot computer, for the camera method.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraConfig {
+    /// The V4L2 device, e.g. `/dev/video0`; absent: no camera.
+    pub device: Option<String>,
+    /// Frame width asked of the camera, pixels.
+    pub width_px: u32,
+    /// Frame height asked of the camera, pixels.
+    pub height_px: u32,
+    /// Frames per second asked of the camera.
+    pub rate_hz: f64,
+    /// Focal lengths and principal point at that size, `[fx, fy, cx, cy]`, pixels (pixel
+    /// `(0, 0)` is the centre of the top-left pixel).
+    pub intrinsics_px: [f64; 4],
+    /// Lens distortion, `[k1, k2, p1, p2, k3]` (OpenCV's order).
+    pub distortion: [f64; 5],
+    /// JPEG quality (1–100) of frames the camera gives uncompressed, as they are recorded and
+    /// shown; MJPEG frames are kept as they come.
+    pub jpeg_quality: u8,
+}
+
+impl Default for CameraConfig {
+    fn default() -> Self {
+        // A 640 × 480 camera with a 65° horizontal field of view (320 / tan 32.5°), no
+        // distortion.
+        let focal_px = 502.3;
+        CameraConfig {
+            device: None,
+            width_px: 640,
+            height_px: 480,
+            rate_hz: 10.0,
+            intrinsics_px: [focal_px, focal_px, 319.5, 239.5],
+            distortion: [0.0; 5],
+            jpeg_quality: 85,
+        }
+    }
+}
+
+impl CameraConfig {
+    /// The camera model of the configuration.
+    pub fn pinhole(&self) -> host::camera::PinholeCamera {
+        let [fx, fy, cx, cy] = self.intrinsics_px;
+        let [k1, k2, p1, p2, k3] = self.distortion;
+        host::camera::PinholeCamera {
+            radial: [k1, k2, k3],
+            tangential: [p1, p2],
+            ..host::camera::PinholeCamera::ideal(fx, fy, cx, cy, [self.width_px, self.height_px])
+        }
+    }
+}
+
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -264,6 +320,8 @@ pub struct DaemonConfig {
     pub record: RecordConfig,
     /// Geo-referencing and goals.
     pub georef: GeorefConfig,
+    /// The camera.
+    pub camera: CameraConfig,
 }
 
 /// A configuration file that cannot be used.
@@ -371,6 +429,34 @@ impl DaemonConfig {
                  within ±180°, got [{lat}, {lon}]"
             )));
         }
+        positive("camera.rate_hz", self.camera.rate_hz)?;
+        let [fx, fy, cx, cy] = self.camera.intrinsics_px;
+        positive("camera.intrinsics_px (fx)", fx)?;
+        positive("camera.intrinsics_px (fy)", fy)?;
+        if !(cx.is_finite()
+            && cy.is_finite()
+            && self.camera.distortion.iter().all(|v| v.is_finite()))
+        {
+            return Err(ConfigError::Invalid(
+                "camera.intrinsics_px and camera.distortion must be finite".into(),
+            ));
+        }
+        if self.camera.width_px == 0 || self.camera.height_px == 0 {
+            return Err(ConfigError::Invalid(
+                "camera.width_px and camera.height_px must be at least 1".into(),
+            ));
+        }
+        if !(1..=100).contains(&self.camera.jpeg_quality) {
+            return Err(ConfigError::Invalid(format!(
+                "camera.jpeg_quality must be 1 to 100, got {}",
+                self.camera.jpeg_quality
+            )));
+        }
+        if self.slam.method == SlamMethod::Camera && self.camera.device.is_none() {
+            return Err(ConfigError::Invalid(
+                "slam.method = \"camera\" needs a camera: set [camera] device".into(),
+            ));
+        }
         if !self.slam.laser_in_robot.iter().all(|v| v.is_finite())
             || !self.slam.antenna_in_robot.iter().all(|v| v.is_finite())
         {
@@ -429,6 +515,19 @@ mod tests {
         let mut config = DaemonConfig::default();
         config.georef.datum_lat_lon_deg = Some([95.0, 0.0]);
         assert!(config.validate().is_err());
+    }
+
+    #[test]
+    fn the_camera_method_needs_a_camera() {
+        let mut config = DaemonConfig::default();
+        config.slam.method = SlamMethod::Camera;
+        let err = config.validate().expect_err("refused").to_string();
+        assert!(err.contains("[camera] device"), "{err}");
+        config.camera.device = Some("/dev/video0".into());
+        config.validate().expect("accepted");
+        config.camera.jpeg_quality = 0;
+        let err = config.validate().expect_err("refused").to_string();
+        assert!(err.contains("camera.jpeg_quality"), "{err}");
     }
 
     #[test]

@@ -7,6 +7,10 @@
 //! ([`host::slam::GridPipeline`], [`host::ekf_slam::EkfPipeline`]) and serves and writes the
 //! outputs.
 
+pub mod camera_capture;
+pub(crate) mod camera_runner;
+#[cfg(feature = "v4l2")]
+pub mod camera_v4l2;
 pub mod config;
 pub mod foxglove_live;
 pub mod goal;

@@ -11,6 +11,7 @@ use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 use crate::runner::RunOutcome;
 use crate::web::render_map_png;
+use host::camera::CameraPipeline;
 use host::geoimage::GeoImage;
 use host::geometry::Pose2;
 use host::georef::{LandmarkInEnu, LocalFrame, write_geojson, write_kml};
@@ -73,9 +74,14 @@ pub fn write_outputs(
             .map_err(|e| output_error(&yaml)(e.to_string()))?;
         written.files.push(dir.join("map.pgm"));
         written.files.push(yaml);
-    } else if let Some(ekf) = &outcome.ekf {
+    } else if let Some(landmarks) = outcome
+        .ekf
+        .as_ref()
+        .map(|ekf| ekf.landmarks_in_map())
+        .or_else(|| outcome.camera.as_ref().map(camera_map_points))
+    {
         let points: Vec<[f64; 2]> = trajectory.iter().map(|r| [r.1.x_m, r.1.y_m]).collect();
-        let png = render_map_png(&points, &ekf.landmarks_in_map(), MAP_DRAWING_SIDE_PX)
+        let png = render_map_png(&points, &landmarks, MAP_DRAWING_SIDE_PX)
             .map_err(|e| output_error(&path)(e.to_string()))?;
         fs::write(&path, png).map_err(|e| output_error(&path)(e.to_string()))?;
         written.files.push(path);
@@ -127,6 +133,7 @@ pub fn write_outputs(
         "grid": outcome.grid.as_ref().map(|g| g.stats()),
         "geo_referenced": geo.is_some(),
         "landmarks": outcome.ekf.as_ref().map_or(0, |e| e.landmarks_in_map().len()),
+        "camera": outcome.camera.as_ref().map(camera_summary),
         "recording": outcome.recording,
         "final_pose": outcome.state.pose,
     });
@@ -147,19 +154,68 @@ fn geo_referencing(outcome: &RunOutcome) -> Option<(LocalFrame, Pose2, Vec<[f64;
         let frame = ekf.frame().filter(|_| ekf.is_geo_referenced())?;
         return Some((*frame, Pose2::IDENTITY, ekf.landmarks_in_map()));
     }
+    if let Some(camera) = &outcome.camera {
+        let frame = camera
+            .local_frame()
+            .filter(|_| camera.is_geo_referenced())?;
+        return Some((*frame, Pose2::IDENTITY, camera_map_points(camera)));
+    }
     let georef = outcome.grid_georef.as_ref()?;
     let alignment = georef.alignment()?;
     Some((*georef.frame()?, alignment.enu_from_map, Vec::new()))
 }
 
-/// `(host_time_s, pose_in_map, lost)` per scan from the pipeline that owns the pose: `lost`
-/// when the grid method's local tracking could not place the scan (never for the EKF).
+/// The camera method's map points on the ground plane: in the `enu` frame once aligned, in
+/// its own `map` frame (forward, left of the first camera, unscaled) before.
+fn camera_map_points(camera: &CameraPipeline) -> Vec<[f64; 2]> {
+    match camera.map_points_in_enu() {
+        Some(points) => points.iter().map(|p| [p.x, p.y]).collect(),
+        None => camera
+            .slam()
+            .map_points()
+            .iter()
+            .map(|p| [p.z, -p.x])
+            .collect(),
+    }
+}
+
+/// The camera method's counts, and its scale from GPS.
+fn camera_summary(camera: &CameraPipeline) -> serde_json::Value {
+    let slam = camera.slam_stats();
+    let fixes = camera.stats();
+    json!({
+        "frames": slam.frames,
+        "features_measured": slam.measured,
+        "features_added": slam.added,
+        "local_maps": slam.local_maps,
+        "places_recognised": slam.places_recognised,
+        "features_rejected_as_moving": slam.features_rejected_as_moving,
+        "corners_rejected_as_moving": slam.corners_rejected_as_moving,
+        "map_points": camera.slam().map_points().len(),
+        "fixes": fixes.fixes,
+        "fixes_paired": fixes.fixes_paired,
+        "geo_referenced": camera.is_geo_referenced(),
+        "scale_from_gps": camera.alignment().map(|a| a.scale),
+        "scale_sigma": camera.alignment().map(|a| a.scale_sigma),
+    })
+}
+
+/// `(host_time_s, pose_in_map, lost)` per scan (per frame for the camera method) from the
+/// pipeline that owns the pose: `lost` when the grid method's local tracking could not place
+/// the scan (never for the EKF or the camera).
 fn trajectory_rows(outcome: &RunOutcome) -> io::Result<Vec<(f64, Pose2, bool)>> {
     if let Some(ekf) = &outcome.ekf {
         return Ok(ekf
             .trajectory()?
             .iter()
             .map(|p| (p.time_s, p.pose_in_map, false))
+            .collect());
+    }
+    if let Some(camera) = &outcome.camera {
+        return Ok(camera
+            .poses()
+            .iter()
+            .filter_map(|p| Some((p.time_s, camera.pose_at(p.time_s)?, false)))
             .collect());
     }
     Ok(outcome.grid.as_ref().map_or_else(Vec::new, |grid| {

@@ -2,6 +2,7 @@
 //! landmarks, and, once the map is geo-referenced, their latitude, longitude and image pixels.
 
 use crate::state::{GridView, LandmarkView, LiveState, PoseView, TrackingView};
+use host::camera::{CameraPipeline, CameraPose};
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
 use host::geometry::Pose2;
@@ -47,6 +48,67 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
             lat_lon_deg: lon_lat(xy).map(|[lon, lat]| [lat, lon]),
         })
         .collect();
+}
+
+/// Writes the camera method's estimate into `state`: the pose and path, and the map's points
+/// every `with_map` call; in the `enu` frame once the fixes have aligned the map, in the
+/// camera method's own (unscaled) frame before.
+pub fn publish_camera(
+    state: &mut LiveState,
+    camera: &CameraPipeline,
+    image: Option<&GeoImage>,
+    with_map: bool,
+) {
+    let Some(last) = camera.poses().last() else {
+        return;
+    };
+    let Some(pose) = camera.pose_at(last.time_s) else {
+        return;
+    };
+    let geo_referenced = camera.is_geo_referenced();
+    let trajectory_m: Vec<[f64; 2]> = if geo_referenced {
+        let poses = camera.trajectory_in_enu().unwrap_or_default();
+        thinned_by_index(poses.len(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
+            poses.get(i).map(|p| [p.position.x, p.position.y])
+        })
+    } else {
+        let poses = camera.poses();
+        thinned_by_index(poses.len(), MAX_SHOWN_TRAJECTORY_POINTS, |i| {
+            poses.get(i).map(CameraPose::in_map)
+        })
+    };
+    // Aligned, the poses are in the `enu` frame itself.
+    let placement = camera
+        .local_frame()
+        .filter(|_| geo_referenced)
+        .map(|frame| (*frame, Pose2::IDENTITY));
+    // The camera method gives no metric covariance of its aligned pose: no ellipse is drawn.
+    publish_pose(
+        state,
+        (pose, [0.0; 3], last.time_s),
+        trajectory_m,
+        placement,
+        image,
+    );
+    if with_map {
+        let points: Vec<[f64; 2]> = match camera.map_points_in_enu() {
+            Some(points) => points.iter().map(|p| [p.x, p.y]).collect(),
+            None => camera
+                .slam()
+                .map_points()
+                .iter()
+                .map(|p| [p.z, -p.x])
+                .collect(),
+        };
+        state.landmarks = points
+            .into_iter()
+            .map(|xy| LandmarkView {
+                x_m: xy[0],
+                y_m: xy[1],
+                lat_lon_deg: lon_lat_of(placement, xy).map(|[lon, lat]| [lat, lon]),
+            })
+            .collect();
+    }
 }
 
 /// Writes the grid pipeline's estimate into `state`: the grid always, the pose and trajectory

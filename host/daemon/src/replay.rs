@@ -2,17 +2,24 @@
 //! and pipelines, one after the other on this thread. The pipelines take their time steps
 //! from the board's stamps, so the estimates are those of the live run, and the same file
 //! always gives the same bytes out.
+//!
+//! With `slam.method = "camera"` the recorded camera frames go to the camera method too,
+//! each at its host time between the link's records. Every recorded frame is tracked: a live
+//! run whose camera method fell behind skipped some (`frames_skipped` in its web view), so
+//! its estimate and the replay's may differ there.
 
 use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use protocol::MeasuringMode;
 
-use crate::config::DaemonConfig;
-use crate::publish::{publish_ekf, publish_grid};
+use crate::config::{DaemonConfig, SlamMethod};
+use crate::publish::{publish_camera, publish_ekf, publish_grid};
 use crate::runner::DaemonError;
-use crate::runner::{RunOutcome, on_grid_event};
+use crate::runner::{RunOutcome, camera_pipeline, on_grid_event};
 use crate::state::LiveState;
+use host::camera::CameraPipeline;
+use host::camera::sequence::decode_gray;
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
 use host::link::LinkSession;
@@ -47,6 +54,32 @@ pub fn replay(
         .transpose()?;
     let mut grid_georef = (grid.is_some() && ekf.is_none())
         .then(|| config.slam.geo_referencer(config.georef.datum_lat_lon_deg));
+    let mut camera = (config.slam.method == SlamMethod::Camera)
+        .then(|| camera_pipeline(config))
+        .transpose()?;
+    if camera.is_some() && recording.camera_images.is_empty() {
+        return Err(DaemonError::Camera(format!(
+            "{}: slam.method = \"camera\" but the recording holds no camera frames",
+            path.display()
+        )));
+    }
+    let mut images = recording.camera_images.iter().peekable();
+    let mut frames_refused = 0usize;
+    // Each frame goes in before the first link record after it, as it reached the camera
+    // method live after the fixes read before it.
+    let mut frames_up_to = |time_s: f64, camera: &mut Option<CameraPipeline>| {
+        let Some(camera) = camera.as_mut() else {
+            return;
+        };
+        while let Some(image) = images.next_if(|image| image.time_s <= time_s) {
+            match decode_gray(&image.data, path) {
+                Ok(gray) => {
+                    camera.on_frame(image.time_s, &gray);
+                }
+                Err(_) => frames_refused += 1,
+            }
+        }
+    };
     let bar = if progress {
         let bar = ProgressBar::new(recording.link.len() as u64);
         bar.set_style(
@@ -60,10 +93,14 @@ pub fn replay(
         ProgressBar::hidden()
     };
     for record in &recording.link {
+        frames_up_to(record.time_s, &mut camera);
         match record.direction {
             LinkDirection::FromBoard => {
                 let decoded = session.feed(&record.bytes, record.time_s);
                 for event in &decoded.events {
+                    if let Some(camera) = camera.as_mut() {
+                        camera.on_event(event);
+                    }
                     if let Some(ekf) = ekf.as_mut() {
                         ekf.on_event(event);
                     }
@@ -77,7 +114,14 @@ pub fn replay(
         }
         bar.inc(1);
     }
+    frames_up_to(f64::INFINITY, &mut camera);
     bar.finish_and_clear();
+    if frames_refused > 0 {
+        tracing::warn!(
+            frames_refused,
+            "camera frames of the recording could not be decoded and were left out"
+        );
+    }
     let mut state = LiveState {
         counters: session.counters(),
         ..LiveState::default()
@@ -93,11 +137,15 @@ pub fn replay(
         ekf.finish();
         publish_ekf(&mut state, ekf, image);
     }
+    if let Some(camera) = &camera {
+        publish_camera(&mut state, camera, image, true);
+    }
     Ok((
         RunOutcome {
             ekf,
             grid,
             grid_georef,
+            camera,
             state,
             recording: None,
         },

@@ -21,10 +21,13 @@ use std::time::{Duration, Instant};
 
 use protocol::{MeasuringMode, Received};
 
-use crate::config::DaemonConfig;
+use crate::camera_capture::FrameSource;
+use crate::camera_runner::{CameraInputs, CameraThreads};
+use crate::config::{DaemonConfig, SlamMethod};
 use crate::foxglove_live::start_live_server;
 use crate::publish::{grid_view, publish_ekf, publish_grid, publish_grid_pose};
 use crate::state::{LiveState, SharedState};
+use host::camera::{CameraPipeline, CameraPipelineOptions};
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
 use host::georef::GeoReferencer;
@@ -100,14 +103,19 @@ pub enum DaemonError {
     /// A thread of the daemon panicked.
     #[error("the {0} thread stopped unexpectedly")]
     Thread(&'static str),
+    /// The camera cannot be used.
+    #[error("{0}")]
+    Camera(String),
 }
 
 /// What the recorder thread is given.
-enum RecordItem {
+pub(crate) enum RecordItem {
     Bytes(f64, Vec<u8>),
     Sent(f64, Vec<u8>),
     Reconnect(f64),
     Message(f64, Option<f64>, Box<Received>),
+    /// A camera frame as JPEG.
+    Image(f64, Arc<Vec<u8>>),
 }
 
 /// What a finished run leaves: the pipelines with their estimates and the link's accounting.
@@ -119,6 +127,8 @@ pub struct RunOutcome {
     pub grid: Option<GridPipeline>,
     /// The grid method's geo-referencing, when the grid pipeline ran without the EKF.
     pub grid_georef: Option<GeoReferencer>,
+    /// The camera method, when it ran.
+    pub camera: Option<CameraPipeline>,
     /// The live state at the end.
     pub state: LiveState,
     /// The recording's totals, when recording.
@@ -133,21 +143,45 @@ pub struct Daemon {
     ekf: Option<JoinHandle<EkfPipeline>>,
     grid: Option<JoinHandle<(GridPipeline, Option<GeoReferencer>)>>,
     recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
+    camera: Option<CameraThreads>,
     live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
     web: Option<crate::web::WebServer>,
     web_token: Option<String>,
+    clock: Instant,
 }
 
 impl Daemon {
     /// Starts every thread: opens the port (waiting for it if it is not there yet), the
-    /// recording, the web view and the Foxglove server as configured.
+    /// camera, the recording, the web view and the Foxglove server as configured.
     ///
     /// # Errors
-    /// The recording or the image cannot be opened, a server cannot bind.
+    /// The recording or the image cannot be opened, a server cannot bind, a camera is
+    /// configured in a build without V4L2.
     pub fn start(
         config: &DaemonConfig,
         opener: Box<dyn PortOpener>,
     ) -> Result<Daemon, DaemonError> {
+        let camera = configured_camera(config)?;
+        Daemon::start_with_camera(config, opener, camera)
+    }
+
+    /// [`Daemon::start`] with frames from `camera` (a recorded sequence, say) instead of the
+    /// configured device; `None`: no camera.
+    ///
+    /// # Errors
+    /// As [`Daemon::start`]; also `slam.method = "camera"` without a camera.
+    pub fn start_with_camera(
+        config: &DaemonConfig,
+        opener: Box<dyn PortOpener>,
+        camera: Option<Box<dyn FrameSource>>,
+    ) -> Result<Daemon, DaemonError> {
+        if config.slam.method == SlamMethod::Camera && camera.is_none() {
+            return Err(DaemonError::Camera(
+                "slam.method = \"camera\" needs a camera: set [camera] device".into(),
+            ));
+        }
+        // Frames and the link's messages are stamped on this one clock.
+        let clock = Instant::now();
         let state = LiveState::shared();
         let shutdown = Arc::new(AtomicBool::new(false));
         let image = load_image(config)?;
@@ -229,6 +263,31 @@ impl Daemon {
             None
         };
 
+        let camera = match camera {
+            Some(source) => {
+                let method = if config.slam.method == SlamMethod::Camera {
+                    let (tx, rx) = mpsc::channel();
+                    event_txs.push(tx);
+                    Some((camera_pipeline(config)?, rx))
+                } else {
+                    None
+                };
+                let inputs = CameraInputs {
+                    source,
+                    method,
+                    clock,
+                    jpeg_quality: config.camera.jpeg_quality,
+                    record_tx: record_tx.clone(),
+                    image: image.clone(),
+                };
+                Some(
+                    CameraThreads::start(inputs, &state, &shutdown)
+                        .map_err(|e| DaemonError::Serve(format!("cannot start the camera: {e}")))?,
+                )
+            }
+            None => None,
+        };
+
         let reader = {
             let state = state.clone();
             let shutdown = shutdown.clone();
@@ -236,7 +295,7 @@ impl Daemon {
             spawn("reader", move || {
                 read_port(
                     opener,
-                    &link,
+                    (&link, clock),
                     &state,
                     &shutdown,
                     &event_txs,
@@ -312,10 +371,18 @@ impl Daemon {
             ekf,
             grid,
             recorder,
+            camera,
             live,
             web,
             web_token,
+            clock,
         })
+    }
+
+    /// The origin of the daemon's host times: every time it stamps (frames, fixes, scans,
+    /// the recording's log times) is in seconds since this instant.
+    pub fn clock(&self) -> Instant {
+        self.clock
     }
 
     /// The token the web view asks of state-changing requests, when it asks one.
@@ -359,6 +426,10 @@ impl Daemon {
             }
             None => (None, None),
         };
+        let camera = match self.camera {
+            Some(threads) => threads.join().map_err(DaemonError::Thread)?,
+            None => None,
+        };
         let recording = self
             .recorder
             .map(|h| h.join().map_err(|_| DaemonError::Thread("recorder")))
@@ -375,6 +446,7 @@ impl Daemon {
             ekf,
             grid,
             grid_georef,
+            camera,
             state,
             recording,
         })
@@ -413,6 +485,44 @@ fn access_policy(web: &crate::config::WebConfig) -> Result<crate::web::AccessPol
     })
 }
 
+/// The camera the configuration names, opened on its first frame.
+#[cfg(feature = "v4l2")]
+fn configured_camera(config: &DaemonConfig) -> Result<Option<Box<dyn FrameSource>>, DaemonError> {
+    Ok(config.camera.device.as_ref().map(|device| {
+        Box::new(crate::camera_v4l2::V4l2Camera::new(
+            crate::camera_v4l2::V4l2Request {
+                device: device.clone(),
+                width_px: config.camera.width_px,
+                height_px: config.camera.height_px,
+                rate_hz: config.camera.rate_hz,
+            },
+        )) as Box<dyn FrameSource>
+    }))
+}
+
+/// The camera the configuration names: refused, this build having no V4L2.
+#[cfg(not(feature = "v4l2"))]
+fn configured_camera(config: &DaemonConfig) -> Result<Option<Box<dyn FrameSource>>, DaemonError> {
+    match &config.camera.device {
+        Some(device) => Err(DaemonError::Camera(format!(
+            "camera {device}: this robot-host was built without the v4l2 feature"
+        ))),
+        None => Ok(None),
+    }
+}
+
+/// The camera method of the configuration.
+pub(crate) fn camera_pipeline(config: &DaemonConfig) -> Result<CameraPipeline, DaemonError> {
+    CameraPipeline::new(
+        config.camera.pinhole(),
+        CameraPipelineOptions {
+            datum_lat_lon_deg: config.georef.datum_lat_lon_deg,
+            ..CameraPipelineOptions::default()
+        },
+    )
+    .map_err(|e| DaemonError::Camera(format!("camera method: {e}")))
+}
+
 fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonError> {
     config
         .georef
@@ -433,14 +543,13 @@ fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonErro
 /// unplug, keeping the session (counters, clock, partial state) across.
 fn read_port(
     mut opener: Box<dyn PortOpener>,
-    link: &crate::config::LinkConfig,
+    (link, clock): (&crate::config::LinkConfig, Instant),
     state: &SharedState,
     shutdown: &AtomicBool,
     event_txs: &[Sender<SensorEvent>],
     record_tx: Option<&Sender<RecordItem>>,
 ) {
-    let start = Instant::now();
-    let now_s = || start.elapsed().as_secs_f64();
+    let now_s = || clock.elapsed().as_secs_f64();
     let mut session = LinkSession::new(MeasuringMode(link.measuring_mode));
     let mut port: Option<Box<dyn serialport::SerialPort>> = None;
     let mut next_open = Instant::now();
@@ -620,6 +729,7 @@ fn record(
             Ok(RecordItem::Message(t, host_s, received)) => {
                 recorder.record_message(t, host_s, &received)?;
             }
+            Ok(RecordItem::Image(t, jpeg)) => recorder.record_image(t, &jpeg)?,
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }

@@ -45,6 +45,63 @@ pub struct TrackingView {
     pub lost_scans: usize,
 }
 
+/// A feature the camera method looked for in the last frame: where it predicted it, and its
+/// innovation covariance (the search region is its 3σ ellipse).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraFeatureView {
+    /// Predicted pixel `[column, row]`.
+    pub pixel: [f64; 2],
+    /// Innovation covariance `[xx, xy, yy]`, px².
+    pub covariance_px2: [f64; 3],
+}
+
+/// What the camera shows: its last frame's counts and, with the camera method running, what
+/// the method made of it. The frame's JPEG is beside it in [`CameraView::jpeg`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CameraStatus {
+    /// Where the frames come from (the device).
+    pub source: String,
+    /// Frames shown so far: the number of the frame in [`CameraView::jpeg`].
+    pub frame: u64,
+    /// Host time of that frame, s.
+    pub time_s: f64,
+    /// Its size, pixels.
+    pub size_px: [u32; 2],
+    /// Frames taken from the camera.
+    pub frames_captured: u64,
+    /// Frames the camera method was still busy for (it takes the newest).
+    pub frames_skipped: u64,
+    /// Frames that could not be decoded.
+    pub frames_refused: u64,
+    /// Whether the camera method tracks the frames (`slam.method = "camera"`).
+    pub tracking: bool,
+    /// The features looked for in this frame, with their search ellipses.
+    pub features: Vec<CameraFeatureView>,
+    /// Features found and used in this frame.
+    pub measured: usize,
+    /// Features started in this frame, px.
+    pub added: Vec<[f64; 2]>,
+    /// Corners found moving on their own in this frame, each `[now, a frame before]`, px.
+    pub moving: Vec<[[f64; 2]; 2]>,
+    /// Local maps so far.
+    pub local_maps: usize,
+    /// Places recognised so far.
+    pub places_recognised: usize,
+    /// Features deleted and corners refused as moving, so far.
+    pub rejected_as_moving: usize,
+    /// The map's scale from GPS (metres per map unit), once the fixes span far enough.
+    pub scale_from_gps: Option<f64>,
+}
+
+/// The camera's last frame and its status.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CameraView {
+    /// The frame as JPEG.
+    pub jpeg: Arc<Vec<u8>>,
+    /// Its counts and what the camera method made of it.
+    pub status: CameraStatus,
+}
+
 /// Everything the daemon shows.
 #[derive(Debug, Clone, Default)]
 pub struct LiveState {
@@ -76,6 +133,8 @@ pub struct LiveState {
     /// geo-referenced: the identity for the EKF method (its map becomes the `enu` frame),
     /// the fitted alignment for the grid method.
     pub enu_from_map: Option<Pose2>,
+    /// The camera, when there is one.
+    pub camera: Option<CameraView>,
 }
 
 /// The geo-referenced image the web view draws under the map.

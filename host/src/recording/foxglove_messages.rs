@@ -2,11 +2,11 @@
 //! `foxglove.LocationFix`), shared by the recorder and the live view.
 
 use foxglove::messages::{
-    LocationFix, Pose, PoseInFrame, Quaternion, Timestamp, Vector3, location_fix,
+    CompressedImage, LocationFix, Pose, PoseInFrame, Quaternion, Timestamp, Vector3, location_fix,
 };
 use protocol::GpsFixMsg;
 
-use super::topics::{GPS_FRAME, MAP_FRAME};
+use super::topics::{CAMERA_FRAME, GPS_FRAME, MAP_FRAME};
 use crate::PoseView;
 
 /// A Foxglove timestamp of host time `time_s`, saturated to the representable range.
@@ -33,6 +33,16 @@ pub fn pose_in_frame(pose: &PoseView) -> PoseInFrame {
                 w: half_rad.cos(),
             }),
         }),
+    }
+}
+
+/// A camera frame taken at host time `time_s`, as JPEG.
+pub fn camera_image(time_s: f64, jpeg: &[u8]) -> CompressedImage {
+    CompressedImage {
+        timestamp: Some(timestamp(time_s)),
+        frame_id: CAMERA_FRAME.to_string(),
+        data: jpeg.to_vec().into(),
+        format: "jpeg".to_string(),
     }
 }
 

@@ -25,7 +25,7 @@ pub mod topics;
 pub use board_message::board_topic;
 pub use error::RecordingError;
 pub use reader::{
-    LinkDirection, LinkRecord, RawRead, Recording, read_recording, read_recording_from,
+    CameraImage, LinkDirection, LinkRecord, RawRead, Recording, read_recording, read_recording_from,
 };
 pub use record_fields::FieldOverrun;
 pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

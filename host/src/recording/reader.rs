@@ -22,7 +22,7 @@ use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use super::error::RecordingError;
 use super::record_fields;
 use super::recorder::time_s;
-use super::topics::{RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
+use super::topics::{CAMERA_IMAGE_TOPIC, RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
 
 /// The longest record (or uncompressed chunk) read, bytes: far above what the recorder
 /// writes, and a bound on what a damaged length field can make the reader allocate.
@@ -64,6 +64,17 @@ pub struct LinkRecord {
     pub bytes: Vec<u8>,
 }
 
+/// One camera frame of a recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraImage {
+    /// Host time the frame was taken, s (recorded to the nanosecond).
+    pub time_s: f64,
+    /// Its compressed bytes.
+    pub data: Vec<u8>,
+    /// Their format as recorded (`jpeg`).
+    pub format: String,
+}
+
 /// What a recording holds.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Recording {
@@ -72,6 +83,10 @@ pub struct Recording {
     /// Every read, write and reopening of the port, in log-time order (file order between
     /// equal times): what a replay goes through.
     pub link: Vec<LinkRecord>,
+    /// The camera's frames, in log-time order.
+    pub camera_images: Vec<CameraImage>,
+    /// Camera frames whose message could not be decoded (left out).
+    pub camera_images_refused: u64,
     /// Messages per topic, the raw reads included.
     pub message_counts: BTreeMap<String, u64>,
     /// Whether the file ends before its footer (the recorder did not finish): the records
@@ -172,6 +187,9 @@ pub fn read_recording_from(
             bytes,
         })
         .collect();
+    recording
+        .camera_images
+        .sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     reads.sort_by_key(|&(log_time_ns, _)| log_time_ns);
     recording.raw_reads = reads
         .into_iter()
@@ -254,6 +272,18 @@ impl Records<'_> {
                     RECONNECT_TOPIC => Some(LinkDirection::Reconnect),
                     _ => None,
                 };
+                if topic == CAMERA_IMAGE_TOPIC {
+                    match <foxglove::messages::CompressedImage as foxglove::Decode>::decode(
+                        &data[..],
+                    ) {
+                        Ok(image) => self.recording.camera_images.push(CameraImage {
+                            time_s: time_s(header.log_time),
+                            data: image.data.to_vec(),
+                            format: image.format,
+                        }),
+                        Err(_) => self.recording.camera_images_refused += 1,
+                    }
+                }
                 if let Some(direction) = direction {
                     let bytes = data.into_owned();
                     if direction == LinkDirection::FromBoard {
@@ -524,6 +554,33 @@ mod tests {
             .map(|r| link.feed(&r.bytes).len())
             .sum();
         assert_eq!(replayed, 60);
+    }
+
+    #[test]
+    fn camera_frames_come_back_in_time_order_beside_the_link() {
+        let path = TempPath::new("camera");
+        let reads = synthetic_reads(10);
+        let mut recorder = Recorder::create(&path.0, options()).unwrap();
+        record(&mut recorder, &reads, 4);
+        // Frames as a camera thread hands them over: not in step with the link's reads.
+        let frames: Vec<(f64, Vec<u8>)> = (0..5u8)
+            .map(|i| (0.05 + 0.1 * f64::from(i), vec![0xFF, 0xD8, i, 0xFF, 0xD9]))
+            .collect();
+        for (t, jpeg) in frames.iter().rev() {
+            recorder.record_image(*t, jpeg).unwrap();
+        }
+        recorder.finish().unwrap();
+
+        let recording = read_recording(&path.0).unwrap();
+        assert_eq!(recording.raw_reads.len(), reads.len());
+        assert_eq!(recording.camera_images_refused, 0);
+        assert_eq!(recording.camera_images.len(), frames.len());
+        for (image, (t, jpeg)) in recording.camera_images.iter().zip(&frames) {
+            assert!((image.time_s - t).abs() < 1e-9);
+            assert_eq!(&image.data, jpeg);
+            assert_eq!(image.format, "jpeg");
+        }
+        assert_eq!(recording.message_counts["/camera/image"], 5);
     }
 
     #[test]

@@ -33,10 +33,10 @@ use protocol::{Message, PROTOCOL_VERSION, Received};
 use super::board_message::{BoardChannel, board_channel, board_json};
 use super::durable_file::DurableFile;
 use super::error::RecordingError;
-use super::foxglove_messages::{gps_location, pose_in_frame, pose_location};
+use super::foxglove_messages::{camera_image, gps_location, pose_in_frame, pose_location};
 use super::topics::{
-    GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC, RAW_ENCODING, RAW_TOPIC, RECONNECT_TOPIC,
-    SENT_TOPIC,
+    CAMERA_IMAGE_TOPIC, GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC, RAW_ENCODING,
+    RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC,
 };
 use crate::PoseView;
 
@@ -240,6 +240,23 @@ impl Recorder {
         if let Some(location) = pose_location(pose) {
             self.write_foxglove(POSE_LOCATION_TOPIC, time_ns, time_ns, &location)?;
         }
+        self.after_record(time_s)
+    }
+
+    /// Records a camera frame taken at host time `time_s`, as JPEG
+    /// (`foxglove.CompressedImage` on [`CAMERA_IMAGE_TOPIC`]).
+    ///
+    /// # Errors
+    /// [`RecordingError::InvalidTime`] for a negative or non-finite time,
+    /// [`RecordingError::Write`] if the file cannot be written.
+    pub fn record_image(&mut self, time_s: f64, jpeg: &[u8]) -> Result<(), RecordingError> {
+        let time_ns = time_ns(time_s)?;
+        self.write_foxglove(
+            CAMERA_IMAGE_TOPIC,
+            time_ns,
+            time_ns,
+            &camera_image(time_s, jpeg),
+        )?;
         self.after_record(time_s)
     }
 

@@ -28,6 +28,13 @@ pub const POSE_LOCATION_TOPIC: &str = "/host/pose_location";
 /// Each GPS fix with a position, in WGS84 (`foxglove.LocationFix`), for Foxglove's map panel.
 pub const GPS_LOCATION_TOPIC: &str = "/gps/location";
 
+/// The camera's frames as JPEG (`foxglove.CompressedImage`): Foxglove's image panel shows
+/// them, and replay runs the camera method on them again.
+pub const CAMERA_IMAGE_TOPIC: &str = "/camera/image";
+
+/// The frame id of camera images (the camera's optical frame).
+pub const CAMERA_FRAME: &str = "camera";
+
 /// The link and sensor counters (JSON, live view only).
 pub const COUNTERS_TOPIC: &str = "/host/counters";
 

@@ -429,6 +429,73 @@ function withoutUnknownCells(picture) {
   return copy;
 }
 
+// ---- Camera ------------------------------------------------------------------------------
+
+// Fetches the camera's frame when /api/state says a new one is there, then draws it.
+function ensureCameraFrame(state) {
+  const panel = document.getElementById('camera-panel');
+  panel.hidden = !state.camera;
+  if (!state.camera || state.camera.frame === 0) return;
+  const frame = state.camera.frame;
+  if ((view.camera && view.camera.frame === frame) || view.cameraLoading) return;
+  view.cameraLoading = true;
+  const status = state.camera;
+  loadPicture(`/api/camera.jpg?frame=${frame}`).then((picture) => {
+    view.camera = { frame, status, picture };
+    view.cameraLoading = false;
+    drawCamera();
+  }, () => { view.cameraLoading = false; });
+}
+
+// The frame, each feature's 3σ search ellipse about its predicted pixel, the features
+// started in it and the corners found moving (where they are, and a line from where they were).
+function drawCamera() {
+  const camera = view.camera;
+  if (!camera) return;
+  const element = document.getElementById('camera');
+  const { picture, status } = camera;
+  element.width = picture.naturalWidth;
+  element.height = picture.naturalHeight;
+  const context = element.getContext('2d');
+  context.drawImage(picture, 0, 0);
+  // The camera method's pixel (0, 0) is the centre of the top-left pixel.
+  context.translate(0.5, 0.5);
+  context.lineWidth = 1.5;
+  context.strokeStyle = '#ffd21f';
+  // ellipseAxes draws the 95 % ellipse; the search region is the 3σ one.
+  const toThreeSigma = 9 / CHI2_95_2DOF;
+  for (const feature of status.features) {
+    const [xx, xy, yy] = feature.covariance_px2.map((v) => v * toThreeSigma);
+    const axes = ellipseAxes([xx, xy, yy]);
+    if (!axes) continue;
+    context.beginPath();
+    context.ellipse(feature.pixel[0], feature.pixel[1], axes.major_m, axes.minor_m,
+      axes.angle_rad, 0, 2 * Math.PI);
+    context.stroke();
+  }
+  context.strokeStyle = '#3ce070';
+  for (const [x, y] of status.added) {
+    context.strokeRect(x - 3, y - 3, 6, 6);
+  }
+  context.strokeStyle = '#2f7dff';
+  context.fillStyle = '#2f7dff';
+  for (const [[x, y], [px, py]] of status.moving) {
+    context.beginPath();
+    context.moveTo(px, py);
+    context.lineTo(x, y);
+    context.stroke();
+    context.fillRect(x - 2, y - 2, 4, 4);
+  }
+  const scale = status.scale_from_gps ? `, ${status.scale_from_gps.toFixed(3)} m per map unit from GPS` : '';
+  document.getElementById('camera-note').textContent = status.tracking
+    ? `${status.source}: frame ${status.frame}, ${status.features.length} features looked for, `
+      + `${status.measured} measured; ${status.local_maps} local maps, `
+      + `${status.places_recognised} places recognised, ${status.rejected_as_moving} rejected as moving${scale}; `
+      + `${status.frames_skipped} frames skipped, ${status.frames_refused} refused`
+    : `${status.source}: frame ${status.frame} (shown and recorded; the camera method runs with slam.method = "camera"), `
+      + `${status.frames_refused} refused`;
+}
+
 // ---- Panels -----------------------------------------------------------------------------
 
 function setText(id, text) {
@@ -448,7 +515,9 @@ function updatePanels(state) {
   setText('pose-lat', fixed(pose.lat_deg, 7));
   setText('pose-lon', fixed(pose.lon_deg, 7));
   const axes = ellipseAxes(pose.position_cov_m2);
-  setText('pose-ellipse', axes ? `${axes.major_m.toFixed(2)} × ${axes.minor_m.toFixed(2)}` : '–');
+  // The camera method gives no metric covariance: no ellipse then.
+  setText('pose-ellipse', axes && axes.major_m > 0
+    ? `${axes.major_m.toFixed(2)} × ${axes.minor_m.toFixed(2)}` : '–');
 
   const tracking = state.tracking;
   const trackingElement = document.getElementById('tracking');
@@ -503,6 +572,7 @@ async function poll() {
     setLinkStatus(true, 'live');
     ensureImage(view.state);
     ensureGrid(view.state);
+    ensureCameraFrame(view.state);
     updatePanels(view.state);
     draw();
   } catch (error) {

@@ -38,6 +38,7 @@ pub(crate) fn router(context: Arc<WebContext>) -> Router {
         .route("/api/state", get(state))
         .route("/api/map.png", get(map_png))
         .route("/api/image.png", get(image_png))
+        .route("/api/camera.jpg", get(camera_jpg))
         .route("/api/goal", post(goal))
         .method_not_allowed_fallback(method_not_allowed)
         .route("/api/{*rest}", any(api_not_found))
@@ -116,6 +117,29 @@ async fn image_png(State(context): State<Arc<WebContext>>) -> Result<Response, A
         )
     })?;
     Ok(png_response(png.as_ref().clone()))
+}
+
+/// `GET /api/camera.jpg`: the camera's last frame (the one `/api/state` describes).
+async fn camera_jpg(State(context): State<Arc<WebContext>>) -> Result<Response, ApiError> {
+    let jpeg = read(&context)
+        .camera
+        .as_ref()
+        .filter(|camera| !camera.jpeg.is_empty())
+        .map(|camera| camera.jpeg.clone())
+        .ok_or_else(|| {
+            ApiError::new(
+                StatusCode::NOT_FOUND,
+                "no camera frame yet (the daemon has no camera, or it has sent nothing)",
+            )
+        })?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/jpeg"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        jpeg.as_ref().clone(),
+    )
+        .into_response())
 }
 
 /// `POST /api/goal`.

@@ -1,13 +1,14 @@
 //! The body of `GET /api/state`: the live state as the page draws it.
 //!
 //! Everything in [`LiveState`] but the grid's PNG bytes, which the page fetches from
-//! `/api/map.png` only when the grid's `revision` changes.
+//! `/api/map.png` only when the grid's `revision` changes, and the camera's JPEG, which it
+//! fetches from `/api/camera.jpg` when the camera's `frame` changes.
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 
 use serde::Serialize;
 
-use crate::state::{GridView, ImageView, LandmarkView, TrackingView};
+use crate::state::{CameraStatus, GridView, ImageView, LandmarkView, TrackingView};
 use crate::{GoalInMap, LinkCounters, LiveState, PoseView};
 
 /// A view of [`LiveState`] borrowed for serialisation.
@@ -33,6 +34,9 @@ pub(crate) struct StateJson<'a> {
     image: Option<&'a ImageView>,
     /// Map frame → image pixels, `[a, b, c, d, e, f]`, once geo-referenced.
     pixel_from_map: Option<[f64; 6]>,
+    /// The camera's last frame and what the camera method made of it; the frame itself is
+    /// at `/api/camera.jpg`.
+    camera: Option<&'a CameraStatus>,
 }
 
 /// Where the occupancy grid lies, without its pixels.
@@ -61,6 +65,7 @@ impl<'a> From<&'a LiveState> for StateJson<'a> {
             goal: state.goal.as_ref(),
             image: state.image.as_ref(),
             pixel_from_map: state.pixel_from_map,
+            camera: state.camera.as_ref().map(|c| &c.status),
         }
     }
 }

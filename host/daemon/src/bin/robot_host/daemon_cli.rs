@@ -35,7 +35,8 @@ pub struct ConfigArgs {
     /// The laser's measuring mode, how its range words are coded [link.measuring_mode].
     #[arg(long)]
     pub measuring_mode: Option<u8>,
-    /// Which SLAM pipelines run: ekf, grid, both or none [slam.method].
+    /// Which SLAM pipelines run: ekf, grid, both, camera (needs --camera) or none
+    /// [slam.method].
     #[arg(long)]
     pub slam: Option<SlamMethod>,
     /// The laser's pose on the robot, X_M,Y_M,THETA_RAD [slam.laser_in_robot].
@@ -88,6 +89,26 @@ pub struct ConfigArgs {
     /// Goals farther than this from the map are refused, metres [georef.goal_margin_m].
     #[arg(long)]
     pub goal_margin_m: Option<f64>,
+    /// A V4L2 camera, e.g. /dev/video0: shown and recorded, and tracked with --slam camera
+    /// [camera.device].
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Frame size asked of the camera, WIDTH_PX,HEIGHT_PX [camera.width_px, camera.height_px].
+    #[arg(long, value_parser = parse_size)]
+    pub camera_size: Option<[u32; 2]>,
+    /// Frames per second asked of the camera [camera.rate_hz].
+    #[arg(long)]
+    pub camera_rate_hz: Option<f64>,
+    /// The camera's calibration at that size, FX,FY,CX,CY in pixels [camera.intrinsics_px].
+    #[arg(long, value_parser = parse_numbers::<4>)]
+    pub camera_intrinsics: Option<[f64; 4]>,
+    /// The lens distortion, K1,K2,P1,P2,K3 (OpenCV's model) [camera.distortion].
+    #[arg(long, value_parser = parse_numbers::<5>)]
+    pub camera_distortion: Option<[f64; 5]>,
+    /// JPEG quality (1-100) of uncompressed frames as recorded and shown
+    /// [camera.jpeg_quality].
+    #[arg(long)]
+    pub camera_jpeg_quality: Option<u8>,
 }
 
 impl ConfigArgs {
@@ -163,6 +184,25 @@ impl ConfigArgs {
         if let Some(v) = self.goal_margin_m {
             c.georef.goal_margin_m = v;
         }
+        if let Some(v) = &self.camera {
+            c.camera.device = Some(v.clone());
+        }
+        if let Some([width_px, height_px]) = self.camera_size {
+            c.camera.width_px = width_px;
+            c.camera.height_px = height_px;
+        }
+        if let Some(v) = self.camera_rate_hz {
+            c.camera.rate_hz = v;
+        }
+        if let Some(v) = self.camera_intrinsics {
+            c.camera.intrinsics_px = v;
+        }
+        if let Some(v) = self.camera_distortion {
+            c.camera.distortion = v;
+        }
+        if let Some(v) = self.camera_jpeg_quality {
+            c.camera.jpeg_quality = v;
+        }
         c.validate().map_err(|e| e.to_string())?;
         Ok(c)
     }
@@ -177,6 +217,17 @@ fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     values
         .try_into()
         .map_err(|_| format!("expected {N} comma-separated numbers, got {s:?}"))
+}
+
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let values: Vec<u32> = s
+        .split(',')
+        .map(|v| v.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s:?}: {e}"))?;
+    values
+        .try_into()
+        .map_err(|_| format!("expected WIDTH_PX,HEIGHT_PX, got {s:?}"))
 }
 
 fn parse_pair(s: &str) -> Result<[f64; 2], String> {
