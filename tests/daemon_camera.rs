@@ -14,16 +14,17 @@ use std::fs;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use hil_sim::demo::{self, DemoOptions};
 use hil_sim::run::CameraRunOptions;
 use hil_sim::world::WorldKind;
-use host::recording::read_recording;
+use host::recording::read_recording_with_camera;
 use robot_host::camera_capture::{FrameSource, SequenceSource};
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::replay::replay;
 use robot_host::runner::{Daemon, SerialPortOpener};
+use system_tests::wait_for;
 
 /// Frames of the recorded sequence the daemon is given.
 const FRAMES: usize = 12;
@@ -71,14 +72,6 @@ fn get(addr: SocketAddr, path: &str) -> (u16, String, Vec<u8>) {
     (status, content_type, raw[split + 4..].to_vec())
 }
 
-fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
-    let deadline = Instant::now() + timeout;
-    while !done() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
 #[test]
 fn the_daemon_tracks_records_and_shows_a_recorded_camera() {
     let test = "the_daemon_tracks_records_and_shows_a_recorded_camera";
@@ -95,11 +88,7 @@ fn the_daemon_tracks_records_and_shows_a_recorded_camera() {
     config.link.port = out.join("no-board").display().to_string();
     config.slam.method = SlamMethod::Camera;
     config.camera.device = Some("recorded".into());
-    config.camera.width_px = camera.width_px;
-    config.camera.height_px = camera.height_px;
-    config.camera.intrinsics_px = [camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px];
-    let ([k1, k2, k3], [p1, p2]) = (camera.radial, camera.tangential);
-    config.camera.distortion = [k1, k2, p1, p2, k3];
+    config.camera.set_model(&camera);
     config.record.path = Some(out.join("run.mcap"));
     config.web.listen = "127.0.0.1:0".parse().expect("address");
     config.web.foxglove_listen = None;
@@ -160,7 +149,7 @@ fn the_daemon_tracks_records_and_shows_a_recorded_camera() {
     );
 
     // Every frame is recorded as the camera gave it, in order.
-    let recording = read_recording(&out.join("run.mcap")).expect("the recording reads");
+    let recording = read_recording_with_camera(&out.join("run.mcap")).expect("the recording reads");
     assert_eq!(recording.camera_images.len(), FRAMES);
     assert_eq!(recording.camera_images_refused, 0);
     let mut again = SequenceSource::open(&sequence, false, QUALITY)
@@ -211,9 +200,9 @@ fn demo_camera_hands_every_frame_to_the_daemon() {
     let report = demo::run(&options, |ready| web = ready.web).expect("the demo runs");
     assert!(web.is_some());
     let camera = report.camera.clone().expect("the camera method ran");
-    // Frames at 0, 0.2, …, 6.0 s.
-    assert_eq!(camera.frames_sent, 31, "{report:#?}");
-    assert_eq!(camera.frames_captured, camera.frames_sent, "{report:#?}");
+    // Frames at 0, 0.2, …, 6.0 s, every one taken by the daemon's capture.
+    assert_eq!(camera.frames_due, 31, "{report:#?}");
+    assert_eq!(camera.frames_captured, camera.frames_due, "{report:#?}");
     assert_eq!(
         camera.frames_tracked as u64 + camera.frames_skipped,
         camera.frames_captured,
@@ -221,7 +210,7 @@ fn demo_camera_hands_every_frame_to_the_daemon() {
     );
     assert!(camera.frames_tracked >= 2, "{report:#?}");
     assert!(report.daemon_counters.gps_fixes > 0, "{report:#?}");
-    let recording = read_recording(&out.join("run.mcap")).expect("the recording reads");
+    let recording = read_recording_with_camera(&out.join("run.mcap")).expect("the recording reads");
     assert_eq!(recording.camera_images.len() as u64, camera.frames_captured);
 
     // The demo's camera is refused indoors.

@@ -16,7 +16,7 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use hil_sim::demo::{self, DemoOptions};
 use hil_sim::pty::PtyLink;
@@ -28,6 +28,7 @@ use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, MeasuringMode, Message, Rang
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::replay::replay;
 use robot_host::runner::{Daemon, SerialPortOpener};
+use system_tests::wait_for;
 
 /// The demos run the whole chain in real time on pseudo-terminals. Two at once on a two-core
 /// machine compete for the cores the firmware's timing depends on, so they take turns.
@@ -303,14 +304,6 @@ fn scan(stamp_us: u64, counter: u32) -> Message {
         status: 0,
         sensor_indices: None,
     })
-}
-
-fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
-    let deadline = Instant::now() + timeout;
-    while !done() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 #[test]

@@ -380,17 +380,20 @@ fn canvas_rgb(tab: &Tab, [x, y]: [f64; 2]) -> Result<[u8; 3], Box<dyn Error + Se
          const d = c.getContext('2d').getImageData(Math.floor({x} * k), Math.floor({y} * k), 1, 1).data; \
          return `${{d[0]}},${{d[1]}},${{d[2]}}`; }})()"
     );
-    let value = evaluate(tab, &expression)?;
+    rgb_of(&evaluate(tab, &expression)?)
+}
+
+/// The colour the page's `` `${r},${g},${b}` `` answer names.
+fn rgb_of(value: &serde_json::Value) -> Result<[u8; 3], Box<dyn Error + Send + Sync>> {
     let channels: Vec<u8> = value
         .as_str()
         .unwrap_or_default()
         .split(',')
         .map(str::parse)
         .collect::<Result<_, _>>()?;
-    let rgb: [u8; 3] = channels
+    channels
         .try_into()
-        .map_err(|c| format!("not a colour: {c:?}"))?;
-    Ok(rgb)
+        .map_err(|c| format!("not a colour: {c:?}").into())
 }
 
 fn colour_is_near(actual: [u8; 3], expected: [u8; 3]) -> bool {
@@ -746,16 +749,7 @@ fn camera_rgb(tab: &Tab, [x, y]: [u32; 2]) -> Result<[u8; 3], Box<dyn Error + Se
         "(() => {{ const d = document.getElementById('camera').getContext('2d')\
          .getImageData({x}, {y}, 1, 1).data; return `${{d[0]}},${{d[1]}},${{d[2]}}`; }})()"
     );
-    let value = evaluate(tab, &expression)?;
-    let channels: Vec<u8> = value
-        .as_str()
-        .unwrap_or_default()
-        .split(',')
-        .map(str::parse)
-        .collect::<Result<_, _>>()?;
-    channels
-        .try_into()
-        .map_err(|c| format!("not a colour: {c:?}").into())
+    rgb_of(&evaluate(tab, &expression)?)
 }
 
 /// A 320 × 240 grey frame: a dark left half and a light right half.
@@ -772,7 +766,7 @@ fn camera_frame_jpeg() -> Vec<u8> {
 fn web_view_camera() -> TestResult {
     let mut state = filled_state();
     state.camera = Some(CameraView {
-        jpeg: Arc::new(camera_frame_jpeg()),
+        jpegs: [(7, Arc::new(camera_frame_jpeg()))].into(),
         status: CameraStatus {
             source: "/dev/video0".to_owned(),
             frame: 7,

@@ -112,9 +112,9 @@ pub struct DemoReport {
 /// What the daemon's camera did, and how its path compares with the truth.
 #[derive(Debug, Clone, Serialize)]
 pub struct DemoCameraReport {
-    /// Frames rendered and handed to the daemon.
-    pub frames_sent: u64,
-    /// Frames the daemon's capture took.
+    /// Frames whose time falls within the drive: those the run renders and hands over.
+    pub frames_due: u64,
+    /// Frames the daemon's capture took (from the daemon's own count).
     pub frames_captured: u64,
     /// Frames the camera method tracked.
     pub frames_tracked: usize,
@@ -320,7 +320,9 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
             let stats = pipeline.slam_stats();
             let truth = camera_truth.lock().unwrap_or_else(PoisonError::into_inner);
             DemoCameraReport {
-                frames_sent: truth.len() as u64,
+                frames_due: options.camera.map_or(0, |camera| {
+                    (options.duration_s * camera.rate_hz + 1e-9).floor() as u64 + 1
+                }),
                 frames_captured: status.map_or(0, |s| s.frames_captured),
                 frames_tracked: pipeline.poses().len(),
                 frames_skipped: status.map_or(0, |s| s.frames_skipped),
@@ -440,11 +442,7 @@ fn behind_wall_clock_s(truth: &[(Instant, CameraRecord)]) -> f64 {
 fn set_camera(config: &mut DaemonConfig, camera: &PinholeCamera) {
     config.slam.method = SlamMethod::Camera;
     config.camera.device = Some("hil-sim camera".into());
-    config.camera.width_px = camera.width_px;
-    config.camera.height_px = camera.height_px;
-    config.camera.intrinsics_px = [camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px];
-    let ([k1, k2, k3], [p1, p2]) = (camera.radial, camera.tangential);
-    config.camera.distortion = [k1, k2, p1, p2, k3];
+    config.camera.set_model(camera);
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.

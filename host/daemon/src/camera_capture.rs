@@ -127,7 +127,7 @@ impl CapturedFrame {
         let pixels = (raw.width_px as usize)
             .checked_mul(raw.height_px as usize)
             .filter(|&n| n > 0)
-            .ok_or_else(|| bad("no pixels".into()))?;
+            .ok_or_else(|| bad("no pixels, or more than this computer can address".into()))?;
         match raw.format {
             PixelFormat::Mjpeg => {
                 let decoded = image::load_from_memory_with_format(&raw.bytes, ImageFormat::Jpeg)
@@ -151,7 +151,9 @@ impl CapturedFrame {
                 } else {
                     1
                 };
-                let expected = pixels * bytes_per_pixel;
+                let expected = pixels
+                    .checked_mul(bytes_per_pixel)
+                    .ok_or_else(|| bad("more bytes than this computer can address".into()))?;
                 // Drivers may pad a buffer beyond the image; fewer bytes are a cut frame.
                 if raw.bytes.len() < expected {
                     return Err(bad(format!("{} bytes, {expected} needed", raw.bytes.len())));
@@ -251,8 +253,10 @@ impl FrameSource for SequenceSource {
                 std::thread::sleep(wait);
             }
         }
-        let gray = self.sequence.load(self.next)?;
+        // A frame that cannot be read is passed over, not asked for again.
+        let index = self.next;
         self.next += 1;
+        let gray = self.sequence.load(index)?;
         let bytes =
             encode_jpeg(&gray, self.jpeg_quality).map_err(|message| CaptureError::BadFrame {
                 format: PixelFormat::Grey,
@@ -278,6 +282,16 @@ impl FrameSource for SequenceSource {
 mod tests {
     use super::*;
 
+    fn raw(format: PixelFormat, width_px: u32, height_px: u32, bytes: Vec<u8>) -> RawFrame {
+        RawFrame {
+            captured_at: None,
+            format,
+            width_px,
+            height_px,
+            bytes,
+        }
+    }
+
     fn gradient(width: u32, height: u32) -> GrayImage {
         GrayImage::from_fn(width, height, |x, y| {
             image::Luma([((x * 7 + y * 3) % 251) as u8])
@@ -293,17 +307,8 @@ mod tests {
             bytes.push(if i % 2 == 0 { 90 } else { 240 });
         }
         bytes.extend_from_slice(&[0; 16]); // a driver's padding
-        let frame = CapturedFrame::from_raw(
-            RawFrame {
-                captured_at: None,
-                format: PixelFormat::Yuyv,
-                width_px: 8,
-                height_px: 4,
-                bytes,
-            },
-            90,
-        )
-        .expect("decodes");
+        let frame =
+            CapturedFrame::from_raw(raw(PixelFormat::Yuyv, 8, 4, bytes), 90).expect("decodes");
         assert_eq!(&frame.jpeg[..2], &[0xFF, 0xD8], "a JPEG");
         let decoded = image::load_from_memory(&frame.jpeg)
             .expect("decodes")
@@ -322,17 +327,8 @@ mod tests {
     fn mjpeg_is_decoded_and_kept_as_it_came() {
         let gray = gradient(32, 16);
         let jpeg = encode_jpeg(&gray, 95).expect("encodes");
-        let frame = CapturedFrame::from_raw(
-            RawFrame {
-                captured_at: None,
-                format: PixelFormat::Mjpeg,
-                width_px: 32,
-                height_px: 16,
-                bytes: jpeg.clone(),
-            },
-            50,
-        )
-        .expect("decodes");
+        let frame = CapturedFrame::from_raw(raw(PixelFormat::Mjpeg, 32, 16, jpeg.clone()), 50)
+            .expect("decodes");
         assert_eq!(frame.jpeg, jpeg);
         let worst = frame
             .gray
@@ -345,38 +341,22 @@ mod tests {
 
     #[test]
     fn cut_and_foreign_frames_are_refused_with_the_reason() {
-        let cut = CapturedFrame::from_raw(
-            RawFrame {
-                captured_at: None,
-                format: PixelFormat::Yuyv,
-                width_px: 640,
-                height_px: 480,
-                bytes: vec![0; 1000],
-            },
-            90,
-        )
-        .expect_err("cut");
+        let cut = CapturedFrame::from_raw(raw(PixelFormat::Yuyv, 640, 480, vec![0; 1000]), 90)
+            .expect_err("cut");
         assert!(cut.to_string().contains("614400 needed"), "{cut}");
         let foreign = CapturedFrame::from_raw(
-            RawFrame {
-                captured_at: None,
-                format: PixelFormat::Mjpeg,
-                width_px: 640,
-                height_px: 480,
-                bytes: b"not a jpeg".to_vec(),
-            },
+            raw(PixelFormat::Mjpeg, 640, 480, b"not a jpeg".to_vec()),
             90,
         )
         .expect_err("foreign");
         assert!(foreign.to_string().contains("not a JPEG"), "{foreign}");
         let wrong_size = CapturedFrame::from_raw(
-            RawFrame {
-                captured_at: None,
-                format: PixelFormat::Mjpeg,
-                width_px: 640,
-                height_px: 480,
-                bytes: encode_jpeg(&gradient(32, 16), 90).expect("encodes"),
-            },
+            raw(
+                PixelFormat::Mjpeg,
+                640,
+                480,
+                encode_jpeg(&gradient(32, 16), 90).expect("encodes"),
+            ),
             90,
         )
         .expect_err("wrong size");

@@ -151,6 +151,7 @@ fn capture(
         ..CameraStatus::default()
     };
     let mut failing = false;
+    let mut outlets_failed = false;
     while !shutdown.load(Ordering::Relaxed) {
         let raw = match source.next_frame() {
             Ok(Some(raw)) => raw,
@@ -195,22 +196,24 @@ fn capture(
             let _ = tx.send(RecordItem::Image(time_s, jpeg.clone()));
         }
         let mut shown_here = true;
-        if let Some(tx) = &outlets.frames_tx {
+        if let Some(tx) = outlets.frames_tx.as_ref().filter(|_| !outlets_failed) {
             match tx.try_send((time_s, frame.gray, jpeg.clone())) {
                 // The method shows it once it has tracked it.
                 Ok(()) => shown_here = false,
                 Err(TrySendError::Full(_)) => counts.frames_skipped += 1,
-                Err(TrySendError::Disconnected(_)) => break,
+                Err(TrySendError::Disconnected(_)) => {
+                    // The method's thread has stopped (it panicked): frames are still
+                    // recorded and shown.
+                    tracing::error!("camera: the camera method has stopped; recording only");
+                    outlets_failed = true;
+                }
             }
         }
         let mut s = state.write().unwrap_or_else(PoisonError::into_inner);
         let view = s.camera.get_or_insert_with(CameraView::default);
         copy_counts(&mut view.status, &counts);
         if shown_here {
-            view.jpeg = jpeg;
-            view.status.frame += 1;
-            view.status.time_s = time_s;
-            view.status.size_px = size_px;
+            view.show(jpeg, time_s, size_px);
             // Drawn over another frame, the last tracked features would mislead.
             clear_tracking(&mut view.status);
         }
@@ -260,10 +263,7 @@ fn run_method(
         tracked += 1;
         let mut s = state.write().unwrap_or_else(PoisonError::into_inner);
         let view = s.camera.get_or_insert_with(CameraView::default);
-        view.jpeg = jpeg;
-        view.status.frame += 1;
-        view.status.time_s = time_s;
-        view.status.size_px = [gray.width(), gray.height()];
+        view.show(jpeg, time_s, [gray.width(), gray.height()]);
         show_tracking(&mut view.status, &pipeline, &report);
         if tracked.is_multiple_of(PUBLISH_POSE_EVERY_FRAMES) {
             publish_camera(

@@ -18,6 +18,9 @@ use crate::camera_capture::{CaptureError, FrameSource, PixelFormat, RawFrame};
 
 /// Buffers the driver fills in turn.
 const BUFFERS: u32 = 4;
+/// A camera that gives no frame for this long is taken as failed (and reopened), so that the
+/// capture thread never waits longer than this to see the daemon stopping.
+const FRAME_TIMEOUT: Duration = Duration::from_secs(1);
 
 /// What a [`V4l2Camera`] asks of its device.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,20 +98,21 @@ impl V4l2Camera {
             self.error("offers none of MJPEG, YUYV and 8-bit grey, which the daemon reads")
         })?;
         if (given.width, given.height) != (self.request.width_px, self.request.height_px) {
-            tracing::warn!(
-                device = %self.request.device,
-                asked = ?(self.request.width_px, self.request.height_px),
-                given = ?(given.width, given.height),
-                "the camera gives another size than configured: the intrinsics must be those \
-                 of the size given"
-            );
+            // The calibration is that of the configured size: tracking frames of another
+            // size with it would be wrong everywhere.
+            return Err(self.error(format!(
+                "gives {}×{} px, not the {}×{} px configured: configure a size it gives, with \
+                 its calibration at that size",
+                given.width, given.height, self.request.width_px, self.request.height_px
+            )));
         }
         let fps = self.request.rate_hz.round().clamp(1.0, 1000.0) as u32;
         if let Err(e) = device.set_params(&Parameters::with_fps(fps)) {
             tracing::warn!(device = %self.request.device, error = %e, "cannot set the frame rate");
         }
-        let stream = MmapStream::with_buffers(&device, Type::VideoCapture, BUFFERS)
+        let mut stream = MmapStream::with_buffers(&device, Type::VideoCapture, BUFFERS)
             .map_err(|e| self.error(format!("cannot start streaming: {e}")))?;
+        stream.set_timeout(FRAME_TIMEOUT);
         tracing::info!(
             device = %self.request.device,
             format = ?format,
@@ -164,6 +168,8 @@ impl FrameSource for V4l2Camera {
                 }))
             }
             Err(e) => {
+                // After a timeout the stream's buffer queue is not in a state to go on from:
+                // it is opened afresh, as after any other failure.
                 self.open = None;
                 Err(self.error(format!("stopped giving frames: {e}")))
             }

@@ -25,7 +25,8 @@ pub enum SlamMethod {
     /// Both; the EKF owns the pose shown, the grid pipeline the occupancy grid.
     Both,
     /// The camera method (a single camera's EKF SLAM with local maps, geo-referenced by GPS)
-    /// owns the pose and the map; it needs `[camera] device`. The laser is read and recorded.
+    /// owns the pose and the map; a run needs `[camera] device`, a replay the recording's
+    /// frames. The laser is read and recorded.
     Camera,
     /// None: read, record and show the link only.
     None,
@@ -294,6 +295,15 @@ impl Default for CameraConfig {
 }
 
 impl CameraConfig {
+    /// Sets the size and calibration to `camera`'s.
+    pub fn set_model(&mut self, camera: &host::camera::PinholeCamera) {
+        self.width_px = camera.width_px;
+        self.height_px = camera.height_px;
+        self.intrinsics_px = [camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px];
+        let ([k1, k2, k3], [p1, p2]) = (camera.radial, camera.tangential);
+        self.distortion = [k1, k2, p1, p2, k3];
+    }
+
     /// The camera model of the configuration.
     pub fn pinhole(&self) -> host::camera::PinholeCamera {
         let [fx, fy, cx, cy] = self.intrinsics_px;
@@ -452,11 +462,6 @@ impl DaemonConfig {
                 self.camera.jpeg_quality
             )));
         }
-        if self.slam.method == SlamMethod::Camera && self.camera.device.is_none() {
-            return Err(ConfigError::Invalid(
-                "slam.method = \"camera\" needs a camera: set [camera] device".into(),
-            ));
-        }
         if !self.slam.laser_in_robot.iter().all(|v| v.is_finite())
             || !self.slam.antenna_in_robot.iter().all(|v| v.is_finite())
         {
@@ -518,12 +523,20 @@ mod tests {
     }
 
     #[test]
-    fn the_camera_method_needs_a_camera() {
+    fn a_camera_model_round_trips_through_the_configuration() {
+        let mut model = host::camera::PinholeCamera::ideal(610.0, 605.0, 320.5, 241.0, [640, 482]);
+        model.radial = [-0.2, 0.05, 0.001];
+        model.tangential = [0.002, -0.001];
+        let mut config = CameraConfig::default();
+        config.set_model(&model);
+        assert_eq!(config.pinhole(), model);
+    }
+
+    #[test]
+    fn camera_values_out_of_range_are_named() {
         let mut config = DaemonConfig::default();
+        // A replay of recorded frames needs no device: the daemon asks for one at start.
         config.slam.method = SlamMethod::Camera;
-        let err = config.validate().expect_err("refused").to_string();
-        assert!(err.contains("[camera] device"), "{err}");
-        config.camera.device = Some("/dev/video0".into());
         config.validate().expect("accepted");
         config.camera.jpeg_quality = 0;
         let err = config.validate().expect_err("refused").to_string();

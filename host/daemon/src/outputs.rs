@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
+use crate::publish::camera_map_points;
 use crate::runner::RunOutcome;
 use crate::web::render_map_png;
 use host::camera::CameraPipeline;
@@ -163,20 +164,6 @@ fn geo_referencing(outcome: &RunOutcome) -> Option<(LocalFrame, Pose2, Vec<[f64;
     let georef = outcome.grid_georef.as_ref()?;
     let alignment = georef.alignment()?;
     Some((*georef.frame()?, alignment.enu_from_map, Vec::new()))
-}
-
-/// The camera method's map points on the ground plane: in the `enu` frame once aligned, in
-/// its own `map` frame (forward, left of the first camera, unscaled) before.
-fn camera_map_points(camera: &CameraPipeline) -> Vec<[f64; 2]> {
-    match camera.map_points_in_enu() {
-        Some(points) => points.iter().map(|p| [p.x, p.y]).collect(),
-        None => camera
-            .slam()
-            .map_points()
-            .iter()
-            .map(|p| [p.z, -p.x])
-            .collect(),
-    }
 }
 
 /// The camera method's counts, and its scale from GPS.

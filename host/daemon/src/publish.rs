@@ -91,16 +91,7 @@ pub fn publish_camera(
         image,
     );
     if with_map {
-        let points: Vec<[f64; 2]> = match camera.map_points_in_enu() {
-            Some(points) => points.iter().map(|p| [p.x, p.y]).collect(),
-            None => camera
-                .slam()
-                .map_points()
-                .iter()
-                .map(|p| [p.z, -p.x])
-                .collect(),
-        };
-        state.landmarks = points
+        state.landmarks = camera_map_points(camera)
             .into_iter()
             .map(|xy| LandmarkView {
                 x_m: xy[0],
@@ -108,6 +99,20 @@ pub fn publish_camera(
                 lat_lon_deg: lon_lat_of(placement, xy).map(|[lon, lat]| [lat, lon]),
             })
             .collect();
+    }
+}
+
+/// The camera method's map points on the ground plane: in the `enu` frame once aligned, in
+/// its own `map` frame (forward, left of the first camera, unscaled) before.
+pub fn camera_map_points(camera: &CameraPipeline) -> Vec<[f64; 2]> {
+    match camera.map_points_in_enu() {
+        Some(points) => points.iter().map(|p| [p.x, p.y]).collect(),
+        None => camera
+            .slam()
+            .map_points()
+            .iter()
+            .map(|p| [p.z, -p.x])
+            .collect(),
     }
 }
 

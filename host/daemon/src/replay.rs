@@ -4,9 +4,9 @@
 //! always gives the same bytes out.
 //!
 //! With `slam.method = "camera"` the recorded camera frames go to the camera method too,
-//! each at its host time between the link's records. Every recorded frame is tracked: a live
-//! run whose camera method fell behind skipped some (`frames_skipped` in its web view), so
-//! its estimate and the replay's may differ there.
+//! each at its host time between the link's records. Every recorded frame that decodes is
+//! given to it, where a live run whose camera method fell behind skipped some
+//! (`frames_skipped` in its web view), so its estimate and the replay's may differ there.
 
 use std::path::Path;
 
@@ -23,7 +23,7 @@ use host::camera::sequence::decode_gray;
 use host::ekf_slam::EkfPipeline;
 use host::geoimage::GeoImage;
 use host::link::LinkSession;
-use host::recording::{LinkDirection, read_recording};
+use host::recording::{LinkDirection, read_recording, read_recording_with_camera};
 use host::slam::GridPipeline;
 
 /// Replays `path` with the pipelines `config` selects; `progress` shows a progress bar on
@@ -37,7 +37,11 @@ pub fn replay(
     image: Option<&GeoImage>,
     progress: bool,
 ) -> Result<(RunOutcome, bool), DaemonError> {
-    let recording = read_recording(path)?;
+    let recording = if config.slam.method == SlamMethod::Camera {
+        read_recording_with_camera(path)?
+    } else {
+        read_recording(path)?
+    };
     let mut session = LinkSession::new(MeasuringMode(config.link.measuring_mode));
     let mut ekf = config.slam.method.runs_ekf().then(|| {
         EkfPipeline::new(

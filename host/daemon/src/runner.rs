@@ -108,6 +108,26 @@ pub enum DaemonError {
     Camera(String),
 }
 
+/// Where the reader hands the sensor events: every event to the laser pipelines, the fixes
+/// alone to the camera method.
+#[derive(Default)]
+struct EventOutlets {
+    all: Vec<Sender<SensorEvent>>,
+    fixes_only: Vec<Sender<SensorEvent>>,
+}
+
+/// Sets the daemon's shutdown flag when dropped while armed: the threads already started
+/// stop when a later part of [`Daemon::start`] fails.
+struct StopOnFailure(Arc<AtomicBool>, bool);
+
+impl Drop for StopOnFailure {
+    fn drop(&mut self) {
+        if self.1 {
+            self.0.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
 /// What the recorder thread is given.
 pub(crate) enum RecordItem {
     Bytes(f64, Vec<u8>),
@@ -184,6 +204,7 @@ impl Daemon {
         let clock = Instant::now();
         let state = LiveState::shared();
         let shutdown = Arc::new(AtomicBool::new(false));
+        let mut stop_on_failure = StopOnFailure(shutdown.clone(), true);
         let image = load_image(config)?;
         if let (Some(image), Ok(mut s)) = (&image, state.write()) {
             s.image = Some(crate::state::ImageView {
@@ -218,10 +239,10 @@ impl Daemon {
             None => (None, None),
         };
 
-        let mut event_txs = Vec::new();
+        let mut event_txs = EventOutlets::default();
         let ekf = if config.slam.method.runs_ekf() {
             let (tx, rx) = mpsc::channel();
-            event_txs.push(tx);
+            event_txs.all.push(tx);
             let mut options = config
                 .slam
                 .ekf_pipeline_options(config.georef.datum_lat_lon_deg);
@@ -247,7 +268,7 @@ impl Daemon {
         };
         let grid = if config.slam.method.runs_grid() {
             let (tx, rx) = mpsc::channel();
-            event_txs.push(tx);
+            event_txs.all.push(tx);
             let pipeline = GridPipeline::new(config.slam.grid_pipeline_options())?;
             let state = state.clone();
             let owns_pose = !config.slam.method.runs_ekf();
@@ -267,7 +288,7 @@ impl Daemon {
             Some(source) => {
                 let method = if config.slam.method == SlamMethod::Camera {
                     let (tx, rx) = mpsc::channel();
-                    event_txs.push(tx);
+                    event_txs.all.push(tx);
                     Some((camera_pipeline(config)?, rx))
                 } else {
                     None
@@ -364,6 +385,7 @@ impl Daemon {
             None
         };
 
+        stop_on_failure.1 = false;
         Ok(Daemon {
             state,
             shutdown,
@@ -546,7 +568,7 @@ fn read_port(
     (link, clock): (&crate::config::LinkConfig, Instant),
     state: &SharedState,
     shutdown: &AtomicBool,
-    event_txs: &[Sender<SensorEvent>],
+    event_txs: &EventOutlets,
     record_tx: Option<&Sender<RecordItem>>,
 ) {
     let now_s = || clock.elapsed().as_secs_f64();
@@ -605,7 +627,12 @@ fn read_port(
                     }
                 }
                 for event in decoded.events {
-                    for tx in event_txs {
+                    let is_fix = matches!(event, SensorEvent::Fix { .. });
+                    let outlets = event_txs
+                        .all
+                        .iter()
+                        .chain(event_txs.fixes_only.iter().filter(|_| is_fix));
+                    for tx in outlets {
                         let _ = tx.send(event.clone());
                     }
                 }

@@ -93,13 +93,39 @@ pub struct CameraStatus {
     pub scale_from_gps: Option<f64>,
 }
 
+/// Frames the web view can still ask for by number, the newest last.
+pub const CAMERA_FRAMES_KEPT: usize = 8;
+
 /// The camera's last frame and its status.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraView {
-    /// The frame as JPEG.
-    pub jpeg: Arc<Vec<u8>>,
-    /// Its counts and what the camera method made of it.
+    /// The newest frames as JPEG with their numbers ([`CameraStatus::frame`]), oldest first,
+    /// at most [`CAMERA_FRAMES_KEPT`]: the page that read the status of frame N asks for
+    /// frame N, which may no longer be the newest.
+    pub jpegs: std::collections::VecDeque<(u64, Arc<Vec<u8>>)>,
+    /// The newest frame's counts and what the camera method made of it.
     pub status: CameraStatus,
+}
+
+impl CameraView {
+    /// Shows `jpeg` as the next frame, taken at host time `time_s`.
+    pub fn show(&mut self, jpeg: Arc<Vec<u8>>, time_s: f64, size_px: [u32; 2]) {
+        self.status.frame += 1;
+        self.status.time_s = time_s;
+        self.status.size_px = size_px;
+        if self.jpegs.len() == CAMERA_FRAMES_KEPT {
+            self.jpegs.pop_front();
+        }
+        self.jpegs.push_back((self.status.frame, jpeg));
+    }
+
+    /// Frame `frame` as JPEG while it is kept; the newest with `None`.
+    pub fn jpeg(&self, frame: Option<u64>) -> Option<&Arc<Vec<u8>>> {
+        match frame {
+            Some(frame) => self.jpegs.iter().find(|(n, _)| *n == frame).map(|(_, j)| j),
+            None => self.jpegs.back().map(|(_, j)| j),
+        }
+    }
 }
 
 /// Everything the daemon shows.

@@ -25,7 +25,8 @@ pub mod topics;
 pub use board_message::board_topic;
 pub use error::RecordingError;
 pub use reader::{
-    CameraImage, LinkDirection, LinkRecord, RawRead, Recording, read_recording, read_recording_from,
+    CameraImage, LinkDirection, LinkRecord, RawRead, Recording, read_recording,
+    read_recording_from, read_recording_with_camera,
 };
 pub use record_fields::FieldOverrun;
 pub use recorder::{Recorder, RecorderOptions, RecordingSummary};

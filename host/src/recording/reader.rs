@@ -83,7 +83,8 @@ pub struct Recording {
     /// Every read, write and reopening of the port, in log-time order (file order between
     /// equal times): what a replay goes through.
     pub link: Vec<LinkRecord>,
-    /// The camera's frames, in log-time order.
+    /// The camera's frames, in log-time order ([`read_recording_with_camera`] and
+    /// [`read_recording_from`] only).
     pub camera_images: Vec<CameraImage>,
     /// Camera frames whose message could not be decoded (left out).
     pub camera_images_refused: u64,
@@ -103,11 +104,24 @@ pub struct Recording {
 /// if a record's field claims more bytes than the record holds, [`RecordingError::Corrupt`]
 /// if it is damaged otherwise (other than by being cut short).
 pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
+    read_file(path, false)
+}
+
+/// [`read_recording`] with the camera's frames ([`Recording::camera_images`]), which the
+/// other readers leave out: an hour of them is gigabytes.
+///
+/// # Errors
+/// As [`read_recording`].
+pub fn read_recording_with_camera(path: &Path) -> Result<Recording, RecordingError> {
+    read_file(path, true)
+}
+
+fn read_file(path: &Path, camera_images: bool) -> Result<Recording, RecordingError> {
     let file = File::open(path).map_err(|source| RecordingError::Open {
         path: path.to_path_buf(),
         source,
     })?;
-    read_recording_from(BufReader::new(file), path)
+    read_from(BufReader::new(file), path, camera_images)
 }
 
 /// Reads a recording from `source` (a file's bytes, a pipe); `path` names it in errors. As
@@ -115,9 +129,14 @@ pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
 ///
 /// # Errors
 /// As [`read_recording`].
-pub fn read_recording_from(
+pub fn read_recording_from(source: impl Read, path: &Path) -> Result<Recording, RecordingError> {
+    read_from(source, path, true)
+}
+
+fn read_from(
     mut source: impl Read,
     path: &Path,
+    camera_images: bool,
 ) -> Result<Recording, RecordingError> {
     let mut magic = [0u8; 8];
     match source.read_exact(&mut magic) {
@@ -143,6 +162,7 @@ pub fn read_recording_from(
     let mut records = Records {
         path,
         recording: &mut recording,
+        camera_images,
         topics: HashMap::new(),
         reads: Vec::new(),
         link: Vec::new(),
@@ -205,6 +225,8 @@ pub fn read_recording_from(
 struct Records<'a> {
     path: &'a Path,
     recording: &'a mut Recording,
+    /// Whether the camera's frames are kept.
+    camera_images: bool,
     /// Each channel's topic.
     topics: HashMap<u16, String>,
     /// The raw reads: log time, bytes.
@@ -272,7 +294,7 @@ impl Records<'_> {
                     RECONNECT_TOPIC => Some(LinkDirection::Reconnect),
                     _ => None,
                 };
-                if topic == CAMERA_IMAGE_TOPIC {
+                if self.camera_images && topic == CAMERA_IMAGE_TOPIC {
                     match <foxglove::messages::CompressedImage as foxglove::Decode>::decode(
                         &data[..],
                     ) {
@@ -571,7 +593,10 @@ mod tests {
         }
         recorder.finish().unwrap();
 
-        let recording = read_recording(&path.0).unwrap();
+        let without = read_recording(&path.0).unwrap();
+        assert!(without.camera_images.is_empty());
+        assert_eq!(without.message_counts["/camera/image"], 5);
+        let recording = read_recording_with_camera(&path.0).unwrap();
         assert_eq!(recording.raw_reads.len(), reads.len());
         assert_eq!(recording.camera_images_refused, 0);
         assert_eq!(recording.camera_images.len(), frames.len());

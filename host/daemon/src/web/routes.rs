@@ -119,19 +119,45 @@ async fn image_png(State(context): State<Arc<WebContext>>) -> Result<Response, A
     Ok(png_response(png.as_ref().clone()))
 }
 
-/// `GET /api/camera.jpg`: the camera's last frame (the one `/api/state` describes).
-async fn camera_jpg(State(context): State<Arc<WebContext>>) -> Result<Response, ApiError> {
-    let jpeg = read(&context)
-        .camera
-        .as_ref()
-        .filter(|camera| !camera.jpeg.is_empty())
-        .map(|camera| camera.jpeg.clone())
-        .ok_or_else(|| {
+/// `GET /api/camera.jpg[?frame=N]`: camera frame N (the one `/api/state` described), while
+/// the daemon keeps it, else the newest.
+async fn camera_jpg(
+    State(context): State<Arc<WebContext>>,
+    uri: Uri,
+) -> Result<Response, ApiError> {
+    let asked = uri
+        .query()
+        .into_iter()
+        .flat_map(|q| q.split('&'))
+        .find_map(|pair| pair.strip_prefix("frame="))
+        .map(|n| {
+            n.parse::<u64>().map_err(|_| {
+                ApiError::new(
+                    StatusCode::BAD_REQUEST,
+                    format!("frame={n:?} is not a frame number"),
+                )
+            })
+        })
+        .transpose()?;
+    let jpeg = {
+        let state = read(&context);
+        let camera = state.camera.as_ref().ok_or_else(|| {
             ApiError::new(
                 StatusCode::NOT_FOUND,
                 "no camera frame yet (the daemon has no camera, or it has sent nothing)",
             )
         })?;
+        camera.jpeg(asked).cloned().ok_or_else(|| match asked {
+            Some(frame) => ApiError::new(
+                StatusCode::NOT_FOUND,
+                format!(
+                    "frame {frame} is no longer kept (the newest is {}): ask /api/state again",
+                    camera.status.frame
+                ),
+            ),
+            None => ApiError::new(StatusCode::NOT_FOUND, "no camera frame yet"),
+        })?
+    };
     Ok((
         [
             (header::CONTENT_TYPE, "image/jpeg"),

@@ -6,7 +6,7 @@ use std::sync::{Arc, PoisonError};
 use serde_json::{Value, json};
 
 use super::{AccessPolicy, WebContext, WebError, WebLimits, WebServer};
-use crate::state::{GridView, ImageView, LandmarkView, TrackingView};
+use crate::state::{CameraView, GridView, ImageView, LandmarkView, TrackingView};
 use crate::{
     GoalError, GoalInMap, GoalRequest, GoalResolver, LinkCounters, LiveState, PoseView, SharedState,
 };
@@ -553,5 +553,44 @@ fn test_idle_and_surplus_connections_are_closed() {
     }
     assert!(started.elapsed() < Duration::from_secs(4));
     assert_eq!(get(&server, "/api/state").status, 200);
+    server.stop();
+}
+
+#[test]
+fn test_camera_frames_are_served_by_number_while_kept() {
+    let (server, state) = serve(LiveState::default(), None);
+    let answer = get(&server, "/api/camera.jpg");
+    assert_eq!(answer.status, 404);
+    assert!(
+        answer.error().contains("no camera frame yet"),
+        "{}",
+        answer.error()
+    );
+    {
+        let mut s = state.write().unwrap();
+        let camera = s.camera.get_or_insert_with(CameraView::default);
+        for n in 1..=12u8 {
+            camera.show(Arc::new(vec![0xFF, 0xD8, n]), f64::from(n) * 0.1, [4, 4]);
+        }
+    }
+    let status = &get(&server, "/api/state").json()["camera"];
+    assert_eq!(status["frame"], 12);
+    let newest = get(&server, "/api/camera.jpg");
+    assert_eq!(newest.status, 200);
+    assert_eq!(newest.content_type, "image/jpeg");
+    assert_eq!(newest.body, vec![0xFF, 0xD8, 12]);
+    // The page asks for the frame whose status it drew, a few frames behind the newest.
+    let asked = get(&server, "/api/camera.jpg?frame=9");
+    assert_eq!(asked.body, vec![0xFF, 0xD8, 9]);
+    let gone = get(&server, "/api/camera.jpg?frame=2");
+    assert_eq!(gone.status, 404);
+    assert!(gone.error().contains("no longer kept"), "{}", gone.error());
+    let bad = get(&server, "/api/camera.jpg?frame=x");
+    assert_eq!(bad.status, 400);
+    assert!(
+        bad.error().contains("not a frame number"),
+        "{}",
+        bad.error()
+    );
     server.stop();
 }
