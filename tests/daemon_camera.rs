@@ -24,7 +24,7 @@ use robot_host::camera_capture::{FrameSource, SequenceSource};
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::replay::replay;
 use robot_host::runner::{Daemon, SerialPortOpener};
-use system_tests::wait_for;
+use system_tests::{fast_demo, wait_for};
 
 /// Frames of the recorded sequence the daemon is given.
 const FRAMES: usize = 12;
@@ -183,18 +183,11 @@ fn the_daemon_tracks_records_and_shows_a_recorded_camera() {
 fn demo_camera_hands_every_frame_to_the_daemon() {
     let out = out_dir("daemon-demo-camera");
     let options = DemoOptions {
-        world: WorldKind::Outdoor,
-        seed: 5,
-        duration_s: 6.0,
-        serve: "127.0.0.1:0".parse().expect("address"),
-        foxglove: None,
-        out: out.clone(),
-        realtime: false,
-        linger_s: 0.0,
         camera: Some(CameraRunOptions {
             rate_hz: 5.0,
             ..CameraRunOptions::default()
         }),
+        ..fast_demo(WorldKind::Outdoor, 5, 6.0, out.clone())
     };
     let mut web = None;
     let report = demo::run(&options, |ready| web = ready.web).expect("the demo runs");

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
-use hil_sim::demo::{self, DemoOptions};
+use hil_sim::demo;
 use hil_sim::pty::PtyLink;
 use hil_sim::world::WorldKind;
 use host::link::LinkSession;
@@ -28,7 +28,7 @@ use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, MeasuringMode, Message, Rang
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::replay::replay;
 use robot_host::runner::{Daemon, SerialPortOpener};
-use system_tests::wait_for;
+use system_tests::{fast_demo, wait_for};
 
 /// The demos run the whole chain in real time on pseudo-terminals. Two at once on a two-core
 /// machine compete for the cores the firmware's timing depends on, so they take turns.
@@ -75,17 +75,7 @@ fn demo_outdoor_maps_geo_references_and_replays_identically() {
         .unwrap_or_else(|poisoned| poisoned.into_inner());
     let out = out_dir("daemon-demo-outdoor");
     let mut api_checks = None;
-    let options = DemoOptions {
-        world: WorldKind::Outdoor,
-        seed: 3,
-        duration_s: 25.0,
-        serve: "127.0.0.1:0".parse().expect("address"),
-        foxglove: None,
-        out: out.clone(),
-        realtime: false,
-        linger_s: 0.0,
-        camera: None,
-    };
+    let options = fast_demo(WorldKind::Outdoor, 3, 25.0, out.clone());
     let report = demo::run(&options, |ready| {
         let addr = ready.web.expect("the web view runs");
         let (status, page) = http(addr, "GET", "/", "");
@@ -213,17 +203,7 @@ fn demo_indoor_builds_an_occupancy_grid() {
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner());
     let out = out_dir("daemon-demo-indoor");
-    let options = DemoOptions {
-        world: WorldKind::Indoor,
-        seed: 7,
-        duration_s: 12.0,
-        serve: "127.0.0.1:0".parse().expect("address"),
-        foxglove: None,
-        out: out.clone(),
-        realtime: false,
-        linger_s: 0.0,
-        camera: None,
-    };
+    let options = fast_demo(WorldKind::Indoor, 7, 12.0, out.clone());
     let report = demo::run(&options, |_| {}).expect("the demo runs");
     assert!(report.daemon_scans > 300, "{report:#?}");
     assert!(!report.geo_referenced);

@@ -35,3 +35,24 @@ pub fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+/// `hil-sim demo` on `world` as the tests run it: as fast as the machine goes, the web view on
+/// a free port of 127.0.0.1, no Foxglove stream, the laser method, outputs in `out`.
+pub fn fast_demo(
+    world: hil_sim::world::WorldKind,
+    seed: u64,
+    duration_s: f64,
+    out: std::path::PathBuf,
+) -> hil_sim::demo::DemoOptions {
+    hil_sim::demo::DemoOptions {
+        world,
+        seed,
+        duration_s,
+        serve: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
+        foxglove: None,
+        out,
+        realtime: false,
+        linger_s: 0.0,
+        camera: None,
+    }
+}
