@@ -168,14 +168,23 @@ struct LocalPoint {
     info: LandmarkInfo,
 }
 
-/// One cell of the voting table.
+/// One cell of the voting table. Kept small (the table holds tens of thousands of cells while
+/// a local map is searched): the hypothesis is kept as the pairs that gave it, and rebuilt for
+/// the few cells that are verified ([`Constellation::hypothesis`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Vote {
-    count: usize,
-    /// Hypothesis from the longest local pair that voted here (the best determined angle).
-    old_from_local: Pose2,
-    pair_length_m: f64,
+    count: u32,
+    /// The longest local pair that voted here (the best determined angle): its index in the
+    /// local pairs...
+    local_pair: u32,
+    /// ...and the old landmarks its first and second point went onto.
+    old_first: u32,
+    old_second: u32,
 }
+
+/// A cell of the voting table: angle bin, then the bins of where the local centroid lands.
+/// The casts saturate, so only positions thousands of kilometres out could share a cell.
+type VoteKey = (i32, i32, i32);
 
 /// The old map indexed for place recognition. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq)]
@@ -296,11 +305,12 @@ impl Constellation {
         if local.len() < 2 || self.indexed_count < 2 || kept == 0 {
             return Vec::new();
         }
-        let votes = self.vote(&local);
-        let mut ranked: Vec<((i64, i64, i64), Vote)> = votes.into_iter().collect();
+        let local_pairs = self.local_pairs(&local);
+        let votes = self.vote(&local, &local_pairs);
+        let mut ranked: Vec<(VoteKey, Vote)> = votes.into_iter().collect();
         // Most votes first; the key breaks ties so the result does not depend on hashing.
         // Only the first `verified_hypotheses` are kept, so only they are sorted.
-        let most_voted_first = |a: &((i64, i64, i64), Vote), b: &((i64, i64, i64), Vote)| {
+        let most_voted_first = |a: &(VoteKey, Vote), b: &(VoteKey, Vote)| {
             b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0))
         };
         if ranked.len() > kept {
@@ -310,7 +320,9 @@ impl Constellation {
         ranked.sort_unstable_by(most_voted_first);
         let mut verified: Vec<PlaceMatch> = ranked
             .iter()
-            .filter_map(|(_, vote)| self.verify(&local, vote))
+            .filter_map(|(_, vote)| {
+                self.verify(&local, vote, self.hypothesis(&local, &local_pairs, vote))
+            })
             .collect();
         verified.sort_by(|a, b| {
             b.score
@@ -332,17 +344,22 @@ impl Constellation {
         distinct
     }
 
-    /// Hypotheses from every local pair against the old pairs of the same length, binned.
-    fn vote(&self, local: &[LocalPoint]) -> FastMap<(i64, i64, i64), Vote> {
+    /// Hypotheses from every local pair (`local_pairs`, from [`Self::local_pairs`]) against the
+    /// old pairs of the same length, binned.
+    fn vote(
+        &self,
+        local: &[LocalPoint],
+        local_pairs: &[(usize, usize, f64)],
+    ) -> FastMap<VoteKey, Vote> {
         let options = &self.options;
         let tolerance_m = options.distance_tolerance_m;
         let slack_m = 2.0 * self.reindex_shift_m();
         let position_bin_m = VOTE_POSITION_BIN_FACTOR * options.inlier_distance_m;
         let centroid = centroid_in_map(local.iter().map(|point| point.position_in_map));
-        let mut votes: FastMap<(i64, i64, i64), Vote> = FastMap::default();
-        for (i, j, length_m) in self.local_pairs(local) {
+        let mut votes: FastMap<VoteKey, Vote> = FastMap::default();
+        for (local_pair, &(i, j, length_m)) in local_pairs.iter().enumerate() {
             let (first, second) = (&local[i], &local[j]);
-            let local_pair = PairFrame::new(first.position_in_map, second.position_in_map);
+            let local_frame = PairFrame::new(first.position_in_map, second.position_in_map);
             let low = self.length_key(length_m - tolerance_m - slack_m);
             let high = self.length_key(length_m + tolerance_m + slack_m);
             for key in low..=high {
@@ -360,35 +377,62 @@ impl Constellation {
                     if (old_length_m - length_m).abs() > tolerance_m {
                         continue;
                     }
-                    for (to_first, to_second) in [(a, b), (b, a)] {
+                    let orientations = [
+                        (a, b, pair.first, pair.second),
+                        (b, a, pair.second, pair.first),
+                    ];
+                    for (to_first, to_second, old_first, old_second) in orientations {
                         if !self.compatible(&first.info, &to_first.info)
                             || !self.compatible(&second.info, &to_second.info)
                         {
                             continue;
                         }
-                        let old_from_local = local_pair
+                        let old_from_local = local_frame
                             .transform_onto(to_first.position_in_map, to_second.position_in_map);
                         let landed = transform(old_from_local, centroid);
                         let key = (
-                            (old_from_local.theta_rad / VOTE_ANGLE_BIN_RAD).round() as i64,
-                            (landed[0] / position_bin_m).floor() as i64,
-                            (landed[1] / position_bin_m).floor() as i64,
+                            (old_from_local.theta_rad / VOTE_ANGLE_BIN_RAD).round() as i32,
+                            (landed[0] / position_bin_m).floor() as i32,
+                            (landed[1] / position_bin_m).floor() as i32,
                         );
-                        let vote = votes.entry(key).or_insert(Vote {
+                        // Landmark and pair counts are far below `u32::MAX`.
+                        let this = Vote {
                             count: 0,
-                            old_from_local,
-                            pair_length_m: length_m,
-                        });
-                        vote.count += 1;
-                        if length_m > vote.pair_length_m {
-                            vote.old_from_local = old_from_local;
-                            vote.pair_length_m = length_m;
+                            local_pair: local_pair as u32,
+                            old_first: old_first as u32,
+                            old_second: old_second as u32,
+                        };
+                        let vote = votes.entry(key).or_insert(this);
+                        vote.count = vote.count.saturating_add(1);
+                        if length_m > local_pairs[vote.local_pair as usize].2 {
+                            *vote = Vote {
+                                count: vote.count,
+                                ..this
+                            };
                         }
                     }
                 }
             }
         }
         votes
+    }
+
+    /// The hypothesis `old_from_local` a cell of the voting table keeps: its local pair laid
+    /// onto its old pair, as [`Self::vote`] computed it.
+    fn hypothesis(
+        &self,
+        local: &[LocalPoint],
+        local_pairs: &[(usize, usize, f64)],
+        vote: &Vote,
+    ) -> Pose2 {
+        let (i, j, _) = local_pairs[vote.local_pair as usize];
+        let position = |old: u32| {
+            self.landmarks[old as usize]
+                .as_ref()
+                .map_or([f64::NAN; 2], |landmark| landmark.position_in_map)
+        };
+        PairFrame::new(local[i].position_in_map, local[j].position_in_map)
+            .transform_onto(position(vote.old_first), position(vote.old_second))
     }
 
     /// Each local landmark with its `pairs_per_landmark` nearest neighbours in the usable
@@ -416,9 +460,14 @@ impl Constellation {
         pairs
     }
 
-    /// Pairs the local landmarks under `vote`'s hypothesis, refitting it as the gate narrows.
-    fn verify(&self, local: &[LocalPoint], vote: &Vote) -> Option<PlaceMatch> {
-        let mut old_from_local = vote.old_from_local;
+    /// Pairs the local landmarks under `vote`'s hypothesis `old_from_local`, refitting it as
+    /// the gate narrows.
+    fn verify(
+        &self,
+        local: &[LocalPoint],
+        vote: &Vote,
+        mut old_from_local: Pose2,
+    ) -> Option<PlaceMatch> {
         for factor in VERIFICATION_GATE_FACTORS {
             let pairs = self.associate(
                 local,
@@ -451,7 +500,7 @@ impl Constellation {
             score,
             rms_residual_m: (sum_squares_m2 / pairs.len() as f64).sqrt(),
             pairs,
-            votes: vote.count,
+            votes: vote.count as usize,
             second_best_score: 0.0,
         })
     }

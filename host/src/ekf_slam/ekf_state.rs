@@ -399,58 +399,73 @@ impl EkfState {
         if pairs.is_empty() {
             return Ok(());
         }
-        let n = self.dim();
         let m = 2 * pairs.len();
-        // P Hᵀ: column 2i + d is P[:, duplicate + d] − P[:, kept + d].
-        let mut p_ht = DMatrix::zeros(n, m);
-        let mut innovation = DVector::zeros(m);
-        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
-            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
-            for d in 0..2 {
-                let mut column = p_ht.column_mut(2 * i + d);
-                column.copy_from(&self.covariance.column(a + d));
-                column.axpy(-1.0, &self.covariance.column(b + d), 1.0);
-                innovation[2 * i + d] = self.mean[b + d] - self.mean[a + d];
-            }
-        }
-        // S = H P Hᵀ + R.
+        // Row or column `i` of H is `e_duplicate − e_kept` on coordinate `i % 2` of pair `i / 2`.
+        let h_entries = |i: usize| {
+            let (duplicate, kept) = pairs[i / 2];
+            (
+                self.landmark_offset(duplicate) + i % 2,
+                self.landmark_offset(kept) + i % 2,
+            )
+        };
+        let p = &self.covariance;
+        // S = H P Hᵀ + R and the innovation, from the covariance's entries.
         let mut s = DMatrix::identity(m, m) * sigma_m.powi(2);
-        for (i, &(duplicate, kept)) in pairs.iter().enumerate() {
-            let (a, b) = (self.landmark_offset(duplicate), self.landmark_offset(kept));
-            for d in 0..2 {
-                for col in 0..m {
-                    s[(2 * i + d, col)] += p_ht[(a + d, col)] - p_ht[(b + d, col)];
-                }
+        let mut innovation = DVector::zeros(m);
+        for row in 0..m {
+            let (ra, rb) = h_entries(row);
+            innovation[row] = self.mean[rb] - self.mean[ra];
+            for col in 0..m {
+                let (ca, cb) = h_entries(col);
+                s[(row, col)] += (p[(ra, ca)] - p[(ra, cb)]) - (p[(rb, ca)] - p[(rb, cb)]);
             }
         }
         s = (&s + s.transpose()) * 0.5;
         let cholesky = s
             .cholesky()
             .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let l = cholesky.l();
 
         let duplicates: Vec<usize> = pairs.iter().map(|&(duplicate, _)| duplicate).collect();
         let keep = self.entries_without(&duplicates);
-        // W = P Hᵀ L⁻ᵀ over the kept rows (m × kept, transposed), and the mean step K ν.
-        let p_ht_kept = p_ht.select_rows(keep.iter());
-        let whitened_innovation = cholesky
-            .l()
+        // W = P Hᵀ L⁻ᵀ over the kept rows (kept × m), in one buffer: P Hᵀ first, then the
+        // triangular solve `W Lᵀ = P Hᵀ` column by column. Only the kept rows are ever
+        // formed, so the update's working memory is two kept × m blocks (W and Wᵀ).
+        let rows = keep.len();
+        let mut w = DMatrix::zeros(rows, m);
+        for col in 0..m {
+            let (a, b) = h_entries(col);
+            for (to, &from) in keep.iter().enumerate() {
+                w[(to, col)] = p[(from, a)] - p[(from, b)];
+            }
+        }
+        let data = w.as_mut_slice();
+        for col in 0..m {
+            let (solved, rest) = data.split_at_mut(col * rows);
+            let target = &mut rest[..rows];
+            for k in 0..col {
+                let factor = l[(col, k)];
+                for (t, &x) in target.iter_mut().zip(&solved[k * rows..(k + 1) * rows]) {
+                    *t -= factor * x;
+                }
+            }
+            let diagonal = l[(col, col)];
+            target.iter_mut().for_each(|t| *t /= diagonal);
+        }
+        let whitened_innovation = l
             .solve_lower_triangular(&innovation)
             .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
-        let w_t = cholesky
-            .l()
-            .solve_lower_triangular(&p_ht_kept.transpose())
-            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
         let mut mean = self.mean.select_rows(keep.iter());
-        mean.gemv_tr(1.0, &w_t, &whitened_innovation, 1.0);
+        mean.gemv(1.0, &w, &whitened_innovation, 1.0);
         mean[THETA] = wrap_angle_rad(mean[THETA]);
         let mut covariance = gather(
             std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
             &keep,
         );
-        // `gemm_tr` would take dot products column by column; the explicit transpose lets
-        // `gemm` use its blocked kernel. Entries (i, j) and (j, i) of `W Wᵀ` sum the same
+        // `gemm` with an explicit transpose uses its blocked kernel (`gemm_tr` would take
+        // dot products column by column). Entries (i, j) and (j, i) of `W Wᵀ` sum the same
         // products in the same order, so the result stays exactly symmetric.
-        covariance.gemm(-1.0, &w_t.transpose(), &w_t, 1.0);
+        covariance.gemm(-1.0, &w, &w.transpose(), 1.0);
         self.mean = mean;
         self.covariance = covariance;
         debug_assert_symmetric!(self.covariance);
