@@ -62,8 +62,13 @@ pub struct GlobalMap {
     /// order. Numbers are handed out in join order and fusions only remove entries, so they
     /// ascend.
     ids: Vec<usize>,
-    /// Indexed by number: the landmark it was fused into, itself while it stands.
-    fused_into: Vec<usize>,
+    /// The number the next joined landmark gets.
+    next_id: usize,
+    /// For each landmark of the last joined local map, in its order, the number of the
+    /// landmark it stands as: its own, or the older one it was fused into. Only the last
+    /// join is kept, so the bookkeeping does not grow with the run: a joined landmark is only
+    /// ever fused away in its own join (fusions remove the newer record).
+    last_joined_ids: Vec<usize>,
 }
 
 impl GlobalMap {
@@ -79,27 +84,30 @@ impl GlobalMap {
             origin_map: Vec::new(),
             bases_in_map: vec![pose_in_map],
             ids: Vec::new(),
-            fused_into: Vec::new(),
+            next_id: 0,
+            last_joined_ids: Vec::new(),
         }
     }
 
     /// The number the next joined landmark gets: a join numbers the local map's landmarks
-    /// from it in their order ([`GlobalMap::positions_by_id`]).
+    /// from it in their order.
     pub fn next_landmark_id(&self) -> usize {
-        self.fused_into.len()
+        self.next_id
     }
 
-    /// Where the map now puts each landmark numbered in `ids`, following it through the
-    /// fusions since; `None` for numbers never handed out.
+    /// For each landmark of the last joined local map, in its order, the number of the
+    /// landmark it now stands as: its own number, or that of the older landmark it was fused
+    /// into. Those numbers stay valid for [`GlobalMap::positions_by_id`] from then on.
+    pub fn last_joined_ids(&self) -> &[usize] {
+        &self.last_joined_ids
+    }
+
+    /// Where the map now puts each landmark numbered in `ids`; `None` for numbers that do not
+    /// stand (never handed out, or fused into another: see [`GlobalMap::last_joined_ids`]).
     pub fn positions_by_id(&self, ids: &[usize]) -> Vec<Option<[f64; 2]>> {
         ids.iter()
-            .map(|&id| {
-                let mut id = id;
-                // Fusions point from a later number to an earlier one, so this ends.
-                while let Some(&into) = self.fused_into.get(id).filter(|&&into| into != id) {
-                    id = into;
-                }
-                let index = self.ids.binary_search(&id).ok()?;
+            .map(|id| {
+                let index = self.ids.binary_search(id).ok()?;
                 Some(self.state.landmark(index))
             })
             .collect()
@@ -240,9 +248,11 @@ impl GlobalMap {
         self.info.extend(local_info);
         self.origin_map
             .extend(std::iter::repeat_n(joined_map, count));
-        let first_id = self.next_landmark_id();
+        let first_id = self.next_id;
+        self.next_id += count;
         self.ids.extend(first_id..first_id + count);
-        self.fused_into.extend(first_id..first_id + count);
+        self.last_joined_ids.clear();
+        self.last_joined_ids.extend(first_id..first_id + count);
         self.bases_in_map.push(self.state.pose());
 
         let mut pairs = self.pair(old_count, options);
@@ -391,7 +401,9 @@ impl GlobalMap {
         for &(new, old) in pairs {
             let record = self.info[new];
             self.info[old].merge(&record);
-            self.fused_into[self.ids[new]] = self.ids[old];
+            // `new` is a landmark of the last join, numbered from its first.
+            let first_id = self.next_id - self.last_joined_ids.len();
+            self.last_joined_ids[self.ids[new] - first_id] = self.ids[old];
         }
         removed.sort_unstable();
         let keep = |index: usize| removed.binary_search(&index).is_err();
@@ -451,7 +463,7 @@ mod tests {
     }
 
     #[test]
-    fn landmark_numbers_follow_their_landmarks_through_a_fusion() {
+    fn a_joined_landmark_is_numbered_as_the_landmark_it_was_fused_into() {
         let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
         let options = AssociationOptions {
             new_landmark_distance2: 0.0,
@@ -468,13 +480,12 @@ mod tests {
             .expect("second join");
         assert_eq!(global.next_landmark_id(), 12);
         assert_eq!(global.state().landmark_count(), 6);
-        let found = global.positions_by_id(&[0, 6, 11, 12]);
-        let tree = global.state().landmark(0);
-        assert_eq!(found[0], Some(tree));
-        // The second local map's first tree was fused into the first one's.
-        assert_eq!(found[1], Some(tree));
-        assert_eq!(found[2], Some(global.state().landmark(5)));
-        assert_eq!(found[3], None);
+        // The second local map's trees were fused into the first one's.
+        assert_eq!(global.last_joined_ids(), &[0, 1, 2, 3, 4, 5]);
+        let found = global.positions_by_id(&[0, 5, 6, 12]);
+        assert_eq!(found[0], Some(global.state().landmark(0)));
+        assert_eq!(found[1], Some(global.state().landmark(5)));
+        assert_eq!(found[2..], [None, None]);
     }
 
     #[test]

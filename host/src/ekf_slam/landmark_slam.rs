@@ -284,10 +284,7 @@ where
         let slam = &self.slam;
         let landmarks = slam.landmarks_in_map();
         let start = slam
-            .local_map_bases_in_map()
-            .first()
-            .copied()
-            .flatten()
+            .first_local_map_base_in_map()
             .or_else(|| slam.global_map().bases_in_map().first().copied())
             .unwrap_or_default();
         let mut robot = slam.robot_in_local_map();

@@ -1,7 +1,7 @@
 //! Where each finished local map lies in the final map.
 //!
 //! A local map's landmarks are kept in its own base frame, numbered as the global map numbers
-//! them when it is joined ([`GlobalMap::next_landmark_id`]). At the end of a run each base is
+//! them once it is joined ([`GlobalMap::last_joined_ids`]). At the end of a run each base is
 //! fitted again (least squares, rigid) to where the map finally put those landmarks, after
 //! every later fusion and closed loop. A pose recorded in a local map's base frame, composed
 //! with that fitted base, follows those corrections; the filter's estimate at the time does
@@ -17,8 +17,8 @@ use crate::geometry::Pose2;
 /// The landmarks of one finished local map.
 #[derive(Debug, Clone, PartialEq)]
 struct Anchors {
-    /// Number of the first landmark; the others follow in order.
-    first_id: usize,
+    /// The number each landmark stands as in the global map.
+    ids: Vec<usize>,
     landmarks_in_base: Vec<[f64; 2]>,
 }
 
@@ -33,10 +33,12 @@ impl LocalMapAnchors {
     /// Fewest landmarks a fitted base stands on.
     pub const MIN_LANDMARKS: usize = 3;
 
-    /// Records the next local map: `landmarks_in_base` as joined, numbered from `first_id`.
-    pub fn record(&mut self, first_id: usize, landmarks_in_base: Vec<[f64; 2]>) {
+    /// Records the next local map: `landmarks_in_base` as joined, and `ids`, the number each
+    /// stands as in the global map ([`GlobalMap::last_joined_ids`] right after its join).
+    pub fn record(&mut self, ids: Vec<usize>, landmarks_in_base: Vec<[f64; 2]>) {
+        debug_assert_eq!(ids.len(), landmarks_in_base.len());
         self.maps.push(Anchors {
-            first_id,
+            ids,
             landmarks_in_base,
         });
     }
@@ -57,13 +59,10 @@ impl LocalMapAnchors {
         self.maps
             .iter()
             .map(|anchors| {
-                let ids: Vec<usize> = (0..anchors.landmarks_in_base.len())
-                    .map(|i| anchors.first_id + i)
-                    .collect();
                 let (from, to): (Vec<[f64; 2]>, Vec<[f64; 2]>) = anchors
                     .landmarks_in_base
                     .iter()
-                    .zip(global.positions_by_id(&ids))
+                    .zip(global.positions_by_id(&anchors.ids))
                     .filter_map(|(&in_base, in_map)| in_map.map(|in_map| (in_base, in_map)))
                     .unzip();
                 if from.len() < Self::MIN_LANDMARKS {
@@ -92,12 +91,12 @@ mod tests {
         let in_base = (0..local.landmark_count())
             .map(|i| local.state().landmark(i))
             .collect();
-        anchors.record(global.next_landmark_id(), in_base);
         global
             .join(local, &AssociationOptions::default(), &[])
             .expect("join");
+        anchors.record(global.last_joined_ids().to_vec(), in_base);
         // A local map of two trees has no base to fit.
-        anchors.record(global.next_landmark_id(), vec![[1.0, 0.0], [2.0, 0.0]]);
+        anchors.record(vec![0, 1], vec![[1.0, 0.0], [2.0, 0.0]]);
 
         let moved = Pose2 {
             x_m: 3.0,

@@ -189,11 +189,13 @@ impl<M: MotionModel> SubmapSlam<M> {
         let mut local = self.local.clone();
         local.prune(self.options.min_observations);
         let recognised = self.recognise_place(&local);
-        let landmarks_in_base = (0..local.landmark_count())
-            .map(|i| local.state().landmark(i))
-            .collect();
-        self.anchors
-            .record(self.global.next_landmark_id(), landmarks_in_base);
+        // Only the first local map's anchors are used (the smoother's start), and keeping
+        // every map's would grow with the time driven, not the area mapped.
+        let first_in_base: Option<Vec<[f64; 2]>> = self.anchors.is_empty().then(|| {
+            (0..local.landmark_count())
+                .map(|i| local.state().landmark(i))
+                .collect()
+        });
         let report = match self
             .global
             .join(local, &self.options.join_association, &recognised)
@@ -204,6 +206,10 @@ impl<M: MotionModel> SubmapSlam<M> {
                 JoinReport::default()
             }
         };
+        if let Some(landmarks_in_base) = first_in_base {
+            self.anchors
+                .record(self.global.last_joined_ids().to_vec(), landmarks_in_base);
+        }
         self.stats.joins += 1;
         self.stats.fused += report.fused;
         if report.revisited >= 2 {
@@ -269,12 +275,16 @@ impl<M: MotionModel> SubmapSlam<M> {
         (pose, covariance)
     }
 
-    /// The base of every closed local map, fitted to where the map now puts its landmarks
-    /// ([`LocalMapAnchors`]): a pose recorded in local map `k`'s frame lies at
-    /// `bases[k] ⊕ pose` in the map as it stands now. `None` for local maps with too few
-    /// landmarks left.
-    pub fn local_map_bases_in_map(&self) -> Vec<Option<Pose2>> {
-        self.anchors.bases_in_map(&self.global)
+    /// The first local map's base, fitted to where the map now puts its landmarks
+    /// ([`LocalMapAnchors`]): a pose recorded in that local map's frame lies at
+    /// `base ⊕ pose` in the map as it stands now. `None` before the first local map is
+    /// closed, or when too few of its landmarks are left.
+    pub fn first_local_map_base_in_map(&self) -> Option<Pose2> {
+        self.anchors
+            .bases_in_map(&self.global)
+            .first()
+            .copied()
+            .flatten()
     }
 
     /// Closes the local map being built if it holds landmarks (or if none was closed yet), as
