@@ -661,13 +661,12 @@ fn run_ekf(
 ) -> EkfPipeline {
     let mut scans_since_publish = 0;
     for event in rx {
-        // A fix waits for the scan stamped after it, so it may be used on a later event.
-        let fixes_before = pipeline.stats().fixes;
         pipeline.on_event(&event);
         if matches!(event, SensorEvent::Scan { .. }) {
             scans_since_publish += 1;
         }
-        if scans_since_publish >= EKF_PUBLISH_EVERY_SCANS || pipeline.stats().fixes != fixes_before
+        if scans_since_publish >= EKF_PUBLISH_EVERY_SCANS
+            || matches!(event, SensorEvent::Fix { .. })
         {
             scans_since_publish = 0;
             if let Ok(mut s) = state.write() {

@@ -35,11 +35,6 @@ const MAX_PREDICT_S: f64 = 0.5;
 /// scan's telegram takes 15 ms at 500 kBd and 0.2 s at 38.4 kBd.
 pub const FIX_HOLD_S: f64 = 0.5;
 
-/// An event stamped this much earlier than the newest one means the board's clock started
-/// again (the board restarted), board seconds: events of one timeline are out of order by at
-/// most a telegram's transfer.
-const BOARD_CLOCK_RESTART_S: f64 = 2.0 * FIX_HOLD_S;
-
 /// A pose estimate at a host time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StampedPose {
@@ -99,12 +94,6 @@ pub struct EkfPipelineStats {
     /// Reports of a GPS epoch already used, passed over: a receiver reports each epoch in
     /// several sentences (GGA, RMC, ...), and one measurement fused twice would count as two.
     pub reports_of_used_epochs: u64,
-    /// Fixes stamped before the last event the filter used (one that reached the host after
-    /// a later scan), passed over.
-    pub fixes_out_of_order: u64,
-    /// Times the board's clock started again (a restarted board), seen as an event stamped
-    /// well before the newest one.
-    pub board_clock_restarts: u64,
 }
 
 /// EKF SLAM over the link's scans and fixes. See the [module documentation](self).
@@ -123,8 +112,6 @@ pub struct EkfPipeline {
     waiting_fixes: VecDeque<(f64, GpsFix)>,
     /// Board time of the last scan given to the method.
     last_scan_s: Option<f64>,
-    /// The newest board time seen.
-    newest_board_s: Option<f64>,
     stats: EkfPipelineStats,
 }
 
@@ -161,28 +148,12 @@ impl EkfPipeline {
             last_epoch_s: None,
             waiting_fixes: VecDeque::new(),
             last_scan_s: None,
-            newest_board_s: None,
             stats: EkfPipelineStats::default(),
         }
     }
 
     /// Uses one sensor reading. Time differences come from the board's stamps.
     pub fn on_event(&mut self, event: &SensorEvent) {
-        let board_time_s = event.board_time_s();
-        if self
-            .newest_board_s
-            .is_some_and(|newest_s| board_time_s < newest_s - BOARD_CLOCK_RESTART_S)
-        {
-            // A new timeline: nothing waiting from the old one can wait for its scans.
-            self.release_fixes_up_to(f64::INFINITY);
-            self.last_scan_s = None;
-            self.newest_board_s = None;
-            self.stats.board_clock_restarts += 1;
-        }
-        self.newest_board_s = Some(
-            self.newest_board_s
-                .map_or(board_time_s, |newest_s| newest_s.max(board_time_s)),
-        );
         match event {
             SensorEvent::Scan {
                 host_time_s,
@@ -256,6 +227,7 @@ impl EkfPipeline {
         }
         match GpsMeasurement::in_frame_or_first(fix, &mut self.frame, &self.gps_options) {
             Ok(measurement) => {
+                self.last_epoch_s = fix.utc_time_s;
                 let used = self.method.on_fix(
                     board_time_s,
                     measurement.position_in_enu_m,
@@ -266,9 +238,6 @@ impl EkfPipeline {
                 }
                 if used.is_some() {
                     self.stats.fixes += 1;
-                    self.last_epoch_s = fix.utc_time_s;
-                } else {
-                    self.stats.fixes_out_of_order += 1;
                 }
             }
             Err(_) => {
@@ -420,40 +389,6 @@ mod tests {
         let stats = pipeline.stats();
         assert_eq!((stats.scans, stats.scans_out_of_order), (20, 0));
         assert_eq!((stats.fixes, stats.reports_of_used_epochs), (20, 20));
-    }
-
-    #[test]
-    fn a_fix_behind_a_later_scan_is_passed_over_and_its_epoch_stays_open() {
-        let mut pipeline = EkfPipeline::new(&EkfPipelineOptions::default());
-        pipeline.on_event(&scan_event(1.0));
-        // GGA stamped before the scan but read after it; then the RMC of the same epoch.
-        pipeline.on_event(&fix_event(0.99, fix(36_000.0, FixSource::Gga)));
-        pipeline.on_event(&fix_event(1.01, fix(36_000.0, FixSource::Rmc)));
-        pipeline.finish();
-        let stats = pipeline.stats();
-        assert_eq!((stats.fixes_out_of_order, stats.fixes), (1, 1));
-        assert_eq!(stats.reports_of_used_epochs, 0);
-    }
-
-    #[test]
-    fn a_restarted_board_clock_lets_the_waiting_fixes_go() {
-        let mut pipeline = EkfPipeline::new(&EkfPipelineOptions::default());
-        pipeline.on_event(&scan_event(100.0));
-        pipeline.on_event(&fix_event(100.01, fix(36_000.0, FixSource::Gga)));
-        // The board restarts: its clock begins again near zero.
-        for k in 0..5 {
-            let t_s = 0.1 * f64::from(k);
-            pipeline.on_event(&fix_event(t_s + 0.01, fix(36_010.0 + t_s, FixSource::Gga)));
-            pipeline.on_event(&scan_event(t_s));
-        }
-        let stats = pipeline.stats();
-        assert_eq!(stats.board_clock_restarts, 1);
-        // The fix from before the restart was let go, not kept waiting for ever.
-        assert!(
-            pipeline.waiting_fixes.len() <= 1,
-            "{:?}",
-            pipeline.waiting_fixes
-        );
     }
 
     #[test]
