@@ -5,17 +5,9 @@
 //! fixes into `enu` measurements. The board carries no odometry, so the robot moves by the
 //! constant-velocity model between scans; time differences come from the board's stamps, so
 //! a replay gives the same estimates as the live run whatever the host's speed.
-//!
-//! The board stamps a scan when its telegram's first byte arrives and sends it once the
-//! telegram is whole, while a fix is stamped at its sentence's `$`: a fix read during a
-//! scan's transfer reaches the host before the scan it follows in time. Fixes therefore wait
-//! until a scan stamped at or after them arrives (at most [`FIX_HOLD_S`] behind the newest
-//! fix, should the scans stop), so the filter sees the events in time order and no scan is
-//! refused as older than a fix.
 
 use nalgebra::{Matrix2, Matrix3};
 
-use std::collections::VecDeque;
 use std::io;
 
 use super::{
@@ -30,10 +22,6 @@ use crate::link::{GpsFix, SensorEvent};
 /// A time step longer than this (a gap in the scans) is not predicted across in one go: the
 /// constant-velocity guess would run away, s.
 const MAX_PREDICT_S: f64 = 0.5;
-
-/// A fix waits for a later scan at most this long behind the newest fix, board seconds: a
-/// scan's telegram takes 15 ms at 500 kBd and 0.2 s at 38.4 kBd.
-pub const FIX_HOLD_S: f64 = 0.5;
 
 /// A pose estimate at a host time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,9 +79,6 @@ pub struct EkfPipelineStats {
     pub local_maps: u64,
     /// Scans whose time stamp did not advance (repeated or reordered), skipped.
     pub scans_out_of_order: u64,
-    /// Reports of a GPS epoch already used, passed over: a receiver reports each epoch in
-    /// several sentences (GGA, RMC, ...), and one measurement fused twice would count as two.
-    pub reports_of_used_epochs: u64,
 }
 
 /// EKF SLAM over the link's scans and fixes. See the [module documentation](self).
@@ -106,12 +91,6 @@ pub struct EkfPipeline {
     max_range_m: f64,
     /// The pose at each scan the method used, at the scan's host time, bounded in memory.
     trajectory: PoseHistory,
-    /// The UTC time of the last GPS epoch used.
-    last_epoch_s: Option<f64>,
-    /// Fixes (board time, fix) waiting for a scan stamped at or after them, oldest first.
-    waiting_fixes: VecDeque<(f64, GpsFix)>,
-    /// Board time of the last scan given to the method.
-    last_scan_s: Option<f64>,
     stats: EkfPipelineStats,
 }
 
@@ -145,9 +124,6 @@ impl EkfPipeline {
             gps_options: GpsMeasurementOptions::default(),
             max_range_m: options.max_range_m,
             trajectory: PoseHistory::new(options.trajectory.clone()),
-            last_epoch_s: None,
-            waiting_fixes: VecDeque::new(),
-            last_scan_s: None,
             stats: EkfPipelineStats::default(),
         }
     }
@@ -161,8 +137,6 @@ impl EkfPipeline {
                 scan,
                 ..
             } => {
-                self.release_fixes_up_to(*board_time_s);
-                self.last_scan_s = Some(*board_time_s);
                 let features =
                     extract_features(&scan.to_range_scan(self.max_range_m), &self.front_end);
                 let observations: Vec<LandmarkObservation> = features
@@ -194,40 +168,15 @@ impl EkfPipeline {
             }
             SensorEvent::Fix {
                 board_time_s, fix, ..
-            } => {
-                self.waiting_fixes.push_back((*board_time_s, *fix));
-                // A fix no later than the last scan cannot wait for one; and without scans
-                // the fixes go on after `FIX_HOLD_S`.
-                let up_to_s = (board_time_s - FIX_HOLD_S).max(self.last_scan_s.unwrap_or(f64::MIN));
-                self.release_fixes_up_to(up_to_s);
-            }
-        }
-    }
-
-    /// Uses the waiting fixes stamped at or before `board_time_s`, in time order.
-    fn release_fixes_up_to(&mut self, board_time_s: f64) {
-        // Fixes arrive in time order: the board reads one GPS line at a time.
-        while let Some(&(fix_time_s, fix)) = self.waiting_fixes.front() {
-            if fix_time_s > board_time_s {
-                break;
-            }
-            self.waiting_fixes.pop_front();
-            self.on_fix(fix_time_s, &fix);
+            } => self.on_fix(*board_time_s, fix),
         }
     }
 
     /// A fix: a position update (or a step of the alignment to GPS) when it makes a
-    /// measurement and its epoch was not used yet; else the filter only moves to its time,
-    /// as for any event.
+    /// measurement; else the filter only moves to its time, as for any event.
     fn on_fix(&mut self, board_time_s: f64, fix: &GpsFix) {
-        if fix.utc_time_s.is_some() && fix.utc_time_s == self.last_epoch_s {
-            self.stats.reports_of_used_epochs += 1;
-            self.method.advance_to(board_time_s);
-            return;
-        }
         match GpsMeasurement::in_frame_or_first(fix, &mut self.frame, &self.gps_options) {
             Ok(measurement) => {
-                self.last_epoch_s = fix.utc_time_s;
                 let used = self.method.on_fix(
                     board_time_s,
                     measurement.position_in_enu_m,
@@ -249,7 +198,6 @@ impl EkfPipeline {
     /// Ends the run: the last local map is joined into the global map
     /// ([`LandmarkSlam::finish`]).
     pub fn finish(&mut self) {
-        self.release_fixes_up_to(f64::INFINITY);
         self.method.finish();
     }
 
@@ -321,86 +269,5 @@ impl EkfPipeline {
             fixes_rejected: self.method.anchor().rejected as u64,
             ..self.stats
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    use std::sync::Arc;
-
-    use protocol::{FixQuality, FixSource};
-
-    use super::*;
-    use crate::link::LaserScan;
-
-    /// A report of the epoch at `utc_time_s`, near Munich, with HDOP 1.
-    fn fix(utc_time_s: f64, source: FixSource) -> GpsFix {
-        GpsFix {
-            source,
-            utc_time_s: Some(utc_time_s),
-            quality: FixQuality::Gps,
-            lat_lon_deg: Some([48.1, 11.5]),
-            height_m: Some(520.0),
-            satellites: Some(9),
-            hdop: Some(1.0),
-            error_ellipse: None,
-            lat_lon_sigma_m: None,
-            speed_mps: None,
-            course_rad: None,
-        }
-    }
-
-    fn fix_event(board_time_s: f64, fix: GpsFix) -> SensorEvent {
-        SensorEvent::Fix {
-            host_time_s: board_time_s,
-            board_time_s,
-            fix,
-        }
-    }
-
-    /// A scan without returns stamped at `board_time_s`.
-    fn scan_event(board_time_s: f64) -> SensorEvent {
-        SensorEvent::Scan {
-            host_time_s: board_time_s,
-            board_time_s,
-            scan_counter: 0,
-            scan: Arc::new(LaserScan {
-                ranges_m: vec![f64::NAN; 181],
-                first_angle_rad: -FRAC_PI_2,
-                angle_step_rad: PI / 180.0,
-            }),
-        }
-    }
-
-    #[test]
-    fn a_fix_read_during_a_scan_waits_for_it_and_each_epoch_is_used_once() {
-        let mut pipeline = EkfPipeline::new(&EkfPipelineOptions::default());
-        for k in 0..20 {
-            let scan_s = 1.0 + 0.1 * f64::from(k);
-            let epoch_s = 36_000.0 + f64::from(k);
-            // GGA and RMC of one epoch, read while the scan stamped before them was in
-            // transfer, so they arrive first.
-            pipeline.on_event(&fix_event(scan_s + 0.005, fix(epoch_s, FixSource::Gga)));
-            pipeline.on_event(&fix_event(scan_s + 0.008, fix(epoch_s, FixSource::Rmc)));
-            pipeline.on_event(&scan_event(scan_s));
-        }
-        pipeline.finish();
-        let stats = pipeline.stats();
-        assert_eq!((stats.scans, stats.scans_out_of_order), (20, 0));
-        assert_eq!((stats.fixes, stats.reports_of_used_epochs), (20, 20));
-    }
-
-    #[test]
-    fn without_scans_the_fixes_go_on_after_the_hold() {
-        let mut pipeline = EkfPipeline::new(&EkfPipelineOptions::default());
-        for k in 0..10 {
-            let t_s = f64::from(k) * 2.0 * FIX_HOLD_S;
-            pipeline.on_event(&fix_event(t_s, fix(t_s, FixSource::Gga)));
-        }
-        // Each fix let the one before it go; the last waits for a scan or the end.
-        assert_eq!(pipeline.stats().fixes, 9);
-        pipeline.finish();
-        assert_eq!(pipeline.stats().fixes, 10);
     }
 }
