@@ -148,6 +148,13 @@ impl SerialRx for BoardPort {
             }
         }
     }
+
+    /// The device's input queue (`TIOCINQ`).
+    fn queued(&self) -> usize {
+        self.termios
+            .bytes_to_read()
+            .map_or(0, |n| usize::try_from(n).unwrap_or(usize::MAX))
+    }
 }
 
 /// Marks a write in progress for as long as it lives, even if the write is abandoned.
@@ -246,5 +253,22 @@ mod tests {
         let mut one = [0u8; 1];
         let n = futures_lite::future::block_on(port.read(&mut one)).unwrap();
         assert_eq!((n, one[0]), (1, 0x06));
+    }
+
+    #[test]
+    fn a_backlog_is_reported_behind_a_read() {
+        let mut link = PtyLink::open().unwrap();
+        let mut port = BoardPort::open(link.board_path(), 500_000).unwrap();
+        assert_eq!(port.queued(), 0);
+        link.device.write_all(&[0x55; 1000]).unwrap();
+        link.device.flush().unwrap();
+        // The pty hands the bytes over asynchronously.
+        let deadline = std::time::Instant::now() + Duration::from_secs(2);
+        while port.queued() < 1000 && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let mut chunk = [0u8; 256];
+        let n = futures_lite::future::block_on(port.read(&mut chunk)).unwrap();
+        assert_eq!((n, port.queued()), (256, 1000 - 256));
     }
 }

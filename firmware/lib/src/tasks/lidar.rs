@@ -2,8 +2,11 @@
 //!
 //! It owns the laser UART, the telegram [`Receiver`] and the [`BringUp`] state machine. Bytes
 //! are stamped at their estimated arrival: a chunk returned by the UART at `now` ends with its
-//! last byte, and each earlier byte arrived one character time (10 bits at the current baud)
-//! before the next. A scan carries the stamp of its telegram's first byte.
+//! last byte, less one character time (10 bits at the current baud) for each byte the port
+//! still holds behind it ([`SerialRx::queued`]), and each earlier byte arrived one character
+//! time before the next. So a task that wakes late to a backlog stamps it as the line carried
+//! it, without a pause that would look like a broken telegram. A scan carries the stamp of its
+//! telegram's first byte.
 //!
 //! The task never waits for the host link: scans are posted with [`Shared::post`], which
 //! drops a whole scan when the outbox is full; `scan_counter` counts every valid scan, so
@@ -114,9 +117,11 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
     }
 
     async fn on_bytes(&mut self, bytes: &[u8]) {
+        // The backlog first, then the clock: bytes arriving in between count in both.
+        let behind = self.port.queued() as u64;
         let now_us = Instant::now().as_micros();
         let char_us = 10_000_000 / u64::from(self.baud.max(1));
-        let last = bytes.len().saturating_sub(1) as u64;
+        let last = bytes.len().saturating_sub(1) as u64 + behind;
         for (i, &byte) in bytes.iter().enumerate() {
             // Never before the previous byte: chunks may come faster than the estimate.
             let stamp_us = now_us

@@ -28,6 +28,16 @@ pub trait SerialRx {
     /// # Errors
     /// A [`PortError`] describing what the hardware saw; the port stays usable.
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, PortError>;
+
+    /// How many received bytes the port still holds after the last [`read`](Self::read) (a
+    /// DMA ring's fill level, a pty's input queue), or 0 when it cannot tell.
+    ///
+    /// A task that wakes late finds a backlog and reads it in several chunks; the first chunk
+    /// then ended this many character times before now, not now. Stamping it as if it ended
+    /// now would open a gap before it that the line never had.
+    fn queued(&self) -> usize {
+        0
+    }
 }
 
 /// A transmitting serial port.
