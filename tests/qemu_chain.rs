@@ -9,8 +9,9 @@
 //! by the firmware or the host (the QEMU run within a slack, see below). And the two runs
 //! must be the same: the same scans emitted and delivered, the same counted lost (within the
 //! slack), the same scans decoded value for value (`scans.tsv`), the same
-//! GPS fixes (`fixes.jsonl`), the same estimated and true poses (the timestamps, the board's
-//! clock as the host maps it, differ by the emulated board's latency).
+//! GPS fixes (`fixes.jsonl`), the same true poses, and estimated poses within centimetres
+//! (the timestamps, the board's clock as the host maps it, differ by the emulated board's
+//! latency, and the filter predicts over the board's stamps).
 //!
 //! Why they can be the same although the emulated board reacts some milliseconds later to
 //! every laser reply (QEMU passes bytes one at a time through its event loop; the engine looks
@@ -53,6 +54,14 @@ const MIN_SLACK_US: u64 = 100_000;
 /// Scans the QEMU run's firmware may count missed beyond or short of those lost (see the
 /// module documentation).
 const WALL_CLOCK_COUNT_SLACK: u64 = 2;
+/// How far the two runs' estimates may differ, m and rad. The filter predicts over the
+/// board's stamps, which the emulated board takes a few milliseconds late by the wall clock,
+/// and its constant-velocity model turns a stamp off by 4 ms of the 213 ms between scans
+/// into a velocity off by 2 %: five runs on a quiet 2-core machine differed by 16–49 mm and
+/// 2.6–7.4 mrad at most; the slack is four times that, for a busier machine. What the
+/// pipelines are given is compared exactly above (`scans.tsv`, `fixes.jsonl`).
+const ESTIMATE_SLACK_M: f64 = 0.2;
+const ESTIMATE_SLACK_RAD: f64 = 0.03;
 
 fn image() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -211,18 +220,46 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
             e.lines().count()
         );
     }
-    // The same estimate and truth at every scan; only the host's time stamps differ.
+    // The same truth at every scan, and the same estimate within what the stamps' skew
+    // allows; only the host's time stamps differ.
     for file in ["trajectory.tsv", "ground_truth.tsv"] {
         let (h_times, h_poses) = timed_lines(host_out, file);
         let (e_times, e_poses) = timed_lines(emulated_out, file);
-        assert_eq!(h_poses, e_poses, "{file}");
         let skew_ms = h_times
             .iter()
             .zip(&e_times)
             .map(|(a, b)| (a - b).abs() * 1e3)
             .fold(0.0, f64::max);
         println!("{file}: time stamps differ by up to {skew_ms:.1} ms");
+        if file == "ground_truth.tsv" {
+            assert_eq!(h_poses, e_poses, "{file}");
+            continue;
+        }
+        assert_eq!(h_poses.len(), e_poses.len(), "{file}");
+        let (mut position_m, mut heading_rad) = (0.0_f64, 0.0_f64);
+        for (h, e) in h_poses.iter().zip(&e_poses) {
+            let (h, e) = (pose(h), pose(e));
+            position_m = position_m.max((h[0] - e[0]).hypot(h[1] - e[1]));
+            heading_rad = heading_rad.max((h[2] - e[2]).abs());
+        }
+        println!(
+            "{file}: estimates differ by up to {:.1} mm and {:.2} mrad",
+            position_m * 1e3,
+            heading_rad * 1e3
+        );
+        assert!(
+            position_m <= ESTIMATE_SLACK_M && heading_rad <= ESTIMATE_SLACK_RAD,
+            "{file}: host executor {h_poses:?}, QEMU {e_poses:?}"
+        );
     }
+}
+
+/// `x_m y_m theta_rad` as numbers.
+fn pose(line: &str) -> [f64; 3] {
+    let mut fields = line
+        .split_whitespace()
+        .map(|f| f.parse::<f64>().unwrap_or(f64::NAN));
+    [(); 3].map(|()| fields.next().unwrap_or(f64::NAN))
 }
 
 fn assert_measured(report: &QemuReport, emulated: &RunSummary) {

@@ -171,6 +171,7 @@ impl SlamConfig {
                 max_shown: crate::publish::MAX_SHOWN_TRAJECTORY_POINTS,
                 ..PoseHistoryOptions::default()
             },
+            ..EkfPipelineOptions::default()
         }
     }
 }

@@ -5,6 +5,12 @@
 //! fixes into `enu` measurements. The board carries no odometry, so the robot moves by the
 //! constant-velocity model between scans; time differences come from the board's stamps, so
 //! a replay gives the same estimates as the live run whatever the host's speed.
+//!
+//! Events reach the filter in the order the board stamped them: a [`BoardTimeOrder`] holds
+//! each for [`EkfPipelineOptions::reorder_window_s`], because a fix is sent a sentence after
+//! its stamp and may arrive after a scan stamped later (the estimate lags by the window). A
+//! receiver reports each epoch in several sentences (GGA, RMC, ...); the filter takes one per
+//! epoch, the one that says most about its error (GST sigmas, else HDOP).
 
 use nalgebra::{Matrix2, Matrix3};
 
@@ -17,7 +23,7 @@ use super::{
 use crate::geometry::Pose2;
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
 use crate::landmarks::{FeatureKind, FrontEndOptions, extract_features};
-use crate::link::{GpsFix, SensorEvent};
+use crate::link::{BoardTimeOrder, GpsFix, SensorEvent, board_time_order};
 
 /// A time step longer than this (a gap in the scans) is not predicted across in one go: the
 /// constant-velocity guess would run away, s.
@@ -47,6 +53,9 @@ pub struct EkfPipelineOptions {
     pub datum_lat_lon_deg: Option<[f64; 2]>,
     /// How the trajectory is kept: the newest poses in memory, older ones in a file.
     pub trajectory: PoseHistoryOptions,
+    /// How long an event is held to be put in board-time order, s
+    /// ([`board_time_order::DEFAULT_WINDOW_S`]); 0 takes events as they come.
+    pub reorder_window_s: f64,
 }
 
 impl Default for EkfPipelineOptions {
@@ -58,6 +67,7 @@ impl Default for EkfPipelineOptions {
             landmarks_per_local_map: 30,
             datum_lat_lon_deg: None,
             trajectory: PoseHistoryOptions::default(),
+            reorder_window_s: board_time_order::DEFAULT_WINDOW_S,
         }
     }
 }
@@ -77,8 +87,12 @@ pub struct EkfPipelineStats {
     pub fixes_rejected: u64,
     /// Local maps joined into the global map.
     pub local_maps: u64,
-    /// Scans whose time stamp did not advance (repeated or reordered), skipped.
+    /// Scans whose time stamp did not advance (repeated, or later than the reorder window),
+    /// skipped.
     pub scans_out_of_order: u64,
+    /// Further reports of a GPS epoch already taken (a receiver reports one epoch in several
+    /// sentences), not used again.
+    pub fixes_repeated: u64,
 }
 
 /// EKF SLAM over the link's scans and fixes. See the [module documentation](self).
@@ -91,6 +105,10 @@ pub struct EkfPipeline {
     max_range_m: f64,
     /// The pose at each scan the method used, at the scan's host time, bounded in memory.
     trajectory: PoseHistory,
+    /// Events waiting to be used in board-time order.
+    order: BoardTimeOrder,
+    /// The UTC epoch (s since midnight) of the last fix handed to the method.
+    last_epoch_s: Option<f64>,
     stats: EkfPipelineStats,
 }
 
@@ -124,12 +142,51 @@ impl EkfPipeline {
             gps_options: GpsMeasurementOptions::default(),
             max_range_m: options.max_range_m,
             trajectory: PoseHistory::new(options.trajectory.clone()),
+            order: BoardTimeOrder::new(options.reorder_window_s),
+            last_epoch_s: None,
             stats: EkfPipelineStats::default(),
         }
     }
 
-    /// Uses one sensor reading. Time differences come from the board's stamps.
+    /// Takes one sensor reading; it is used once the reorder window has passed it (see the
+    /// [module documentation](self)). Time differences come from the board's stamps.
     pub fn on_event(&mut self, event: &SensorEvent) {
+        if let SensorEvent::Fix { fix, .. } = event
+            && self.is_repeated_report(fix)
+        {
+            self.stats.fixes_repeated += 1;
+            return;
+        }
+        for due in self.order.push(event.clone()) {
+            self.use_event(&due);
+        }
+    }
+
+    /// Whether `fix` reports an epoch already taken or held; a held report of the epoch is
+    /// replaced by `fix` when `fix` says more about its error.
+    fn is_repeated_report(&mut self, fix: &GpsFix) -> bool {
+        let Some(epoch_s) = fix.utc_time_s else {
+            return false;
+        };
+        if self.last_epoch_s == Some(epoch_s) {
+            return true;
+        }
+        for held in self.order.pending_mut() {
+            if let SensorEvent::Fix { fix: held_fix, .. } = held
+                && held_fix.utc_time_s == Some(epoch_s)
+            {
+                // The held report keeps its stamp and its place in the order.
+                if report_rank(fix) > report_rank(held_fix) {
+                    *held_fix = *fix;
+                }
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Uses one reading, in board-time order.
+    fn use_event(&mut self, event: &SensorEvent) {
         match event {
             SensorEvent::Scan {
                 host_time_s,
@@ -168,7 +225,12 @@ impl EkfPipeline {
             }
             SensorEvent::Fix {
                 board_time_s, fix, ..
-            } => self.on_fix(*board_time_s, fix),
+            } => {
+                if fix.utc_time_s.is_some() {
+                    self.last_epoch_s = fix.utc_time_s;
+                }
+                self.on_fix(*board_time_s, fix);
+            }
         }
     }
 
@@ -195,9 +257,12 @@ impl EkfPipeline {
         }
     }
 
-    /// Ends the run: the last local map is joined into the global map
-    /// ([`LandmarkSlam::finish`]).
+    /// Ends the run: the events still held are used, then the last local map is joined into
+    /// the global map ([`LandmarkSlam::finish`]).
     pub fn finish(&mut self) {
+        for event in self.order.drain() {
+            self.use_event(&event);
+        }
         self.method.finish();
     }
 
@@ -269,5 +334,130 @@ impl EkfPipeline {
             fixes_rejected: self.method.anchor().rejected as u64,
             ..self.stats
         }
+    }
+}
+
+/// How much a fix report says about its own error: a GST error estimate over an HDOP over
+/// neither; a report without a position says nothing.
+fn report_rank(fix: &GpsFix) -> u8 {
+    if !fix.has_position() {
+        0
+    } else if fix.error_ellipse.is_some() || fix.lat_lon_sigma_m.is_some() {
+        3
+    } else if fix.hdop.is_some() {
+        2
+    } else {
+        1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use protocol::{FixQuality, FixSource};
+
+    use super::*;
+    use crate::link::LaserScan;
+
+    fn scan(board_time_s: f64) -> SensorEvent {
+        SensorEvent::Scan {
+            host_time_s: board_time_s,
+            board_time_s,
+            scan_counter: 0,
+            scan: Arc::new(LaserScan {
+                ranges_m: vec![f64::NAN; 181],
+                first_angle_rad: -std::f64::consts::FRAC_PI_2,
+                angle_step_rad: 1f64.to_radians(),
+            }),
+        }
+    }
+
+    /// A report of the epoch `utc_time_s`, stamped at `board_time_s`, with an HDOP or not.
+    fn fix(
+        board_time_s: f64,
+        utc_time_s: f64,
+        source: FixSource,
+        hdop: Option<f64>,
+    ) -> SensorEvent {
+        SensorEvent::Fix {
+            host_time_s: board_time_s,
+            board_time_s,
+            fix: GpsFix {
+                source,
+                utc_time_s: Some(utc_time_s),
+                quality: FixQuality::Gps,
+                lat_lon_deg: Some([48.1, 11.5]),
+                height_m: None,
+                satellites: Some(8),
+                hdop,
+                error_ellipse: None,
+                lat_lon_sigma_m: None,
+                speed_mps: None,
+                course_rad: None,
+            },
+        }
+    }
+
+    fn run(options: &EkfPipelineOptions, events: &[SensorEvent]) -> EkfPipelineStats {
+        let mut pipeline = EkfPipeline::new(options);
+        for event in events {
+            pipeline.on_event(event);
+        }
+        pipeline.finish();
+        pipeline.stats()
+    }
+
+    /// Scans every 0.1 s; each second's fix is stamped 0.05 s after a scan but arrives after
+    /// the next one.
+    fn fix_behind_a_later_scan() -> Vec<SensorEvent> {
+        let mut events = Vec::new();
+        for second in 0..3 {
+            let t0 = f64::from(second);
+            events.push(scan(t0));
+            events.push(scan(t0 + 0.1));
+            events.push(fix(t0 + 0.05, 3600.0 + t0, FixSource::Gga, Some(1.0)));
+            events.extend((2..10).map(|i| scan(t0 + 0.1 * f64::from(i))));
+        }
+        events
+    }
+
+    #[test]
+    fn a_fix_that_arrives_after_a_later_scan_is_used_in_its_place() {
+        let stats = run(&EkfPipelineOptions::default(), &fix_behind_a_later_scan());
+        assert_eq!(
+            (stats.scans, stats.scans_out_of_order),
+            (30, 0),
+            "{stats:?}"
+        );
+        assert_eq!(stats.fixes, 3, "{stats:?}");
+        // Taken as they come, each fix is older than the filter's time and goes unused.
+        let as_they_come = EkfPipelineOptions {
+            reorder_window_s: 0.0,
+            ..EkfPipelineOptions::default()
+        };
+        let stats = run(&as_they_come, &fix_behind_a_later_scan());
+        assert_eq!(stats.fixes, 0, "{stats:?}");
+    }
+
+    #[test]
+    fn one_report_per_epoch_the_one_with_an_hdop() {
+        let mut events = Vec::new();
+        for second in 0..3 {
+            let t0 = f64::from(second);
+            let epoch_s = 3600.0 + t0;
+            events.push(scan(t0));
+            // The RMC first (no HDOP), then the GGA of the same epoch.
+            events.push(fix(t0 + 0.01, epoch_s, FixSource::Rmc, None));
+            events.push(fix(t0 + 0.08, epoch_s, FixSource::Gga, Some(1.0)));
+            events.extend((1..10).map(|i| scan(t0 + 0.1 * f64::from(i))));
+            // A late repeat of the epoch, after it was used.
+            events.push(fix(t0 + 0.95, epoch_s, FixSource::Gll, None));
+        }
+        let stats = run(&EkfPipelineOptions::default(), &events);
+        assert_eq!(stats.fixes_repeated, 6, "{stats:?}");
+        // The GGA's HDOP gives the measurement its covariance; an RMC alone has none.
+        assert_eq!(stats.fixes, 3, "{stats:?}");
+        assert_eq!(stats.scans_out_of_order, 0, "{stats:?}");
     }
 }

@@ -1,5 +1,7 @@
 //! The board link on the host side.
 //!
+//! * [`board_time_order::BoardTimeOrder`]: holds events briefly to hand them on in the order
+//!   the board stamped them, not the order they arrived in.
 //! * [`clock_sync::ClockSync`]: maps the board's monotonic microseconds to host seconds from
 //!   time-sync round trips.
 //! * [`laser_scan::LaserScan`]: a scan message's range words in metres, in the sensor frame.
@@ -12,6 +14,7 @@
 //!   accounting (lost frames, CRC errors, skipped kinds).
 //! * [`time_sync::TimeSync`]: the pings that feed the clock mapping.
 
+pub mod board_time_order;
 pub mod clock_sync;
 mod counters;
 mod gps_fix;
@@ -20,6 +23,7 @@ pub mod reader;
 pub mod session;
 pub mod time_sync;
 
+pub use board_time_order::BoardTimeOrder;
 pub use clock_sync::ClockSync;
 pub use counters::LinkCounters;
 pub use gps_fix::{ErrorEllipse, GpsFix};
