@@ -156,6 +156,22 @@ impl Estimator {
         })
     }
 
+    /// The host time of every scan the pipeline placed, in the order of
+    /// [`Self::trajectory`], for a pipeline that places a scan later than it is given (the
+    /// EKF holds events to take them in board-time order); `None` when each scan is placed
+    /// as it comes.
+    ///
+    /// # Errors
+    /// The EKF pipeline's trajectory cannot be read back from its temporary file.
+    pub fn placed_times_s(&self) -> io::Result<Option<Vec<f64>>> {
+        Ok(match self {
+            Estimator::Ekf(pipeline) => {
+                Some(pipeline.trajectory()?.iter().map(|p| p.time_s).collect())
+            }
+            Estimator::Grid(_) | Estimator::Camera { .. } => None,
+        })
+    }
+
     /// How many scans the pipeline has placed so far.
     pub fn trajectory_len(&self) -> usize {
         match self {

@@ -42,7 +42,8 @@ pub struct ScanRecord {
     pub t_s: f64,
     /// The host's estimate `[x_m, y_m, theta_rad]`, once [`HostSide::finish`] ran.
     pub estimate: [f64; 3],
-    /// Scans the pipeline had placed when this one was fed (its pose is the last of them).
+    /// Scans the pipeline had placed when this one was fed (its pose is the last of them), or,
+    /// for a pipeline that places scans later, up to this one's host time.
     placed: usize,
     /// The truth.
     pub truth: RobotState,
@@ -235,7 +236,8 @@ impl HostSide {
     }
 
     /// Ends the run: the pipeline finishes, and each scan record takes its pose as the
-    /// pipeline holds it at the end.
+    /// pipeline holds it at the end: the pose of the scan itself, or of the newest one placed
+    /// before it when the pipeline skipped it.
     ///
     /// # Errors
     /// The pipeline's trajectory cannot be read back.
@@ -243,6 +245,12 @@ impl HostSide {
         self.estimator.finish();
         self.geo_referenced = self.estimator.is_geo_referenced();
         let trajectory = self.estimator.trajectory()?;
+        if let Some(times_s) = self.estimator.placed_times_s()? {
+            // Placed later than fed: a scan's pose is the newest placed at its host time.
+            for record in &mut self.records {
+                record.placed = times_s.partition_point(|&t| t <= record.t_s);
+            }
+        }
         for record in &mut self.records {
             record.estimate = record
                 .placed
