@@ -260,6 +260,7 @@ fn filled_state() -> LiveState {
             gps_fix_quality: 4,
             gps_satellites: 11,
             reconnects: 1,
+            board_restarts: 2,
             clock_synchronised: true,
         },
         image: Some(ImageView {
@@ -527,6 +528,7 @@ fn web_view() -> TestResult {
     )?;
     assert_eq!(text(tab, "telegram-crc-errors")?, "7");
     assert_eq!(text(tab, "crc-errors")?, "3");
+    assert_eq!(text(tab, "board-restarts")?, "2");
     assert_eq!(text(tab, "gps-fix")?, "RTK fixed");
     assert_eq!(text(tab, "gps-satellites")?, "11");
     assert_eq!(text(tab, "clock")?, "synchronised");

@@ -23,6 +23,8 @@ pub struct LinkCounters {
     pub gps_satellites: u8,
     /// Times the serial port was reopened.
     pub reconnects: u64,
+    /// Times the board restarted its clock (see [`super::LinkSession`]).
+    pub board_restarts: u64,
     /// Whether the board clock is synchronised to host time.
     pub clock_synchronised: bool,
 }

@@ -1,6 +1,12 @@
 //! One board link as the host sees it: bytes in, sensor events out, with the clock mapping
 //! and the counters. The live reader and the replay of a recording drive the same session,
 //! so a replay decodes, times and counts exactly what the live run did.
+//!
+//! A board that restarts (a brown-out, a watchdog, a reflash) starts its clock again at zero.
+//! The session notices a stamp far behind the newest it has seen, counts the restart, drops
+//! the old boot's clock mapping, and carries the board time on: the events' `board_time_s`
+//! continue from the last boot's newest stamp by the host time that passed, so a filter that
+//! steps by board time never sees it go back.
 
 use std::sync::Arc;
 
@@ -16,8 +22,9 @@ pub enum SensorEvent {
     Scan {
         /// Host time of the scan's first byte, seconds.
         host_time_s: f64,
-        /// Board time of the scan's first byte, seconds since the board started: what the
-        /// pipelines take time differences of (it does not depend on when the host read it).
+        /// Board time of the scan's first byte, seconds since the board started (continued
+        /// across restarts, see the [module documentation](self)): what the pipelines take time
+        /// differences of (it does not depend on when the host read it).
         board_time_s: f64,
         /// The board's scan counter.
         scan_counter: u32,
@@ -28,7 +35,7 @@ pub enum SensorEvent {
     Fix {
         /// Host time of the fix's first byte, seconds.
         host_time_s: f64,
-        /// Board time, seconds since the board started.
+        /// Board time, seconds since the board started (continued across restarts).
         board_time_s: f64,
         /// The fix as the board parsed it, in SI units.
         fix: GpsFix,
@@ -74,7 +81,16 @@ pub struct LinkSession {
     mode: MeasuringMode,
     counters: LinkCounters,
     last_status: Option<StatusMsg>,
+    /// The newest board stamp of the current boot, µs, and the host time it was read at.
+    newest_stamp: Option<(u64, f64)>,
+    /// What the current boot's stamps are shifted by to continue the earlier boots', µs.
+    boot_offset_us: u64,
 }
+
+/// A stamp this far behind the newest of the boot means the board restarted its clock, µs:
+/// far beyond the board's own reordering (a scan is sent up to 0.2 s after its stamp, a
+/// status report at once), and short enough to see a board that restarted after 2 s.
+const RESTART_BEHIND_US: u64 = 2_000_000;
 
 impl LinkSession {
     /// A session for a laser whose range words are coded in measuring `mode`.
@@ -86,6 +102,8 @@ impl LinkSession {
             mode,
             counters: LinkCounters::default(),
             last_status: None,
+            newest_stamp: None,
+            boot_offset_us: 0,
         }
     }
 
@@ -93,6 +111,11 @@ impl LinkSession {
     pub fn feed(&mut self, bytes: &[u8], recv_s: f64) -> Decoded {
         let mut decoded = Decoded::default();
         for received in self.reader.feed(bytes) {
+            if let Some(stamp_us) = board_clock_us(&received.message) {
+                self.note_board_clock(stamp_us, recv_s);
+            }
+            let boot_offset_us = self.boot_offset_us;
+            let board_time_s = |stamp_us: u64| (boot_offset_us + stamp_us) as f64 * 1e-6;
             self.sync.observe(&received.message, recv_s);
             let clock = self.sync.clock();
             let host_time = |stamp_us: u64| {
@@ -107,7 +130,7 @@ impl LinkSession {
                     self.counters.telegrams += 1;
                     decoded.events.push(SensorEvent::Scan {
                         host_time_s: host_time(msg.stamp_us),
-                        board_time_s: msg.stamp_us as f64 * 1e-6,
+                        board_time_s: board_time_s(msg.stamp_us),
                         scan_counter: msg.scan_counter,
                         scan: Arc::new(LaserScan::from_msg(msg, self.mode)),
                     });
@@ -121,7 +144,7 @@ impl LinkSession {
                     }
                     decoded.events.push(SensorEvent::Fix {
                         host_time_s: host_time(fix.stamp_us),
-                        board_time_s: fix.stamp_us as f64 * 1e-6,
+                        board_time_s: board_time_s(fix.stamp_us),
                         fix: GpsFix::from_msg(fix),
                     });
                 }
@@ -142,6 +165,24 @@ impl LinkSession {
         self.counters.crc_errors = stats.crc_errors;
         self.counters.clock_synchronised = self.sync.clock().is_synchronised();
         decoded
+    }
+
+    /// Follows the board's clock through `stamp_us`, read at host time `recv_s`: a stamp far
+    /// behind the newest is a restart (see the [module documentation](self)).
+    fn note_board_clock(&mut self, stamp_us: u64, recv_s: f64) {
+        match self.newest_stamp {
+            Some((newest_us, newest_recv_s)) if stamp_us + RESTART_BEHIND_US < newest_us => {
+                // The new boot's stamp comes after the old boot's newest by the host time
+                // between them (at least 1 µs).
+                let elapsed_us = ((recv_s - newest_recv_s).max(0.0) * 1e6).round() as u64;
+                self.boot_offset_us += newest_us + elapsed_us.saturating_sub(stamp_us).max(1);
+                self.newest_stamp = Some((stamp_us, recv_s));
+                self.sync = TimeSync::new();
+                self.counters.board_restarts += 1;
+            }
+            Some((newest_us, _)) if stamp_us <= newest_us => {}
+            _ => self.newest_stamp = Some((stamp_us, recv_s)),
+        }
     }
 
     /// The time-sync ping to send at host time `now_s`, encoded as a frame.
@@ -192,6 +233,15 @@ impl LinkSession {
     /// The link reader's full accounting.
     pub fn link_stats(&self) -> super::LinkStats {
         self.reader.stats()
+    }
+}
+
+/// The board clock's reading a message carries, µs: its stamp, or the board time of an
+/// acknowledgement.
+fn board_clock_us(message: &Message) -> Option<u64> {
+    match message {
+        Message::Ack(ack) => Some(ack.board_time_us),
+        other => message_stamp_us(other),
     }
 }
 
@@ -257,6 +307,30 @@ mod tests {
         assert_eq!(scan.ranges_m[0], 5.0);
         assert_eq!(session.counters().telegrams, 2);
         assert_eq!(session.counters().frames, 2);
+    }
+
+    #[test]
+    fn a_restarted_board_clock_carries_on_from_the_last_boot() {
+        let mut session = LinkSession::new(MeasuringMode::DEFAULT);
+        let times = |decoded: Decoded| -> Vec<f64> {
+            decoded
+                .events
+                .iter()
+                .map(SensorEvent::board_time_s)
+                .collect()
+        };
+        let first = times(session.feed(&board_frames(&[scan(10_000_000, 1)]), 100.0));
+        let late = times(session.feed(&board_frames(&[scan(9_990_000, 2)]), 100.1));
+        // Restarted: 0.5 s into its new boot, read 0.6 s of host time after the newest stamp
+        // (10 s), so it comes at 10.6 s.
+        let after =
+            times(session.feed(&board_frames(&[scan(500_000, 1), scan(526_667, 2)]), 100.6));
+        assert_eq!(first, [10.0]);
+        // A stamp a little behind the newest is no restart.
+        assert_eq!(late, [9.99]);
+        assert!((after[0] - 10.6).abs() < 1e-9, "{after:?}");
+        assert!((after[1] - after[0] - 0.026_667).abs() < 1e-9, "{after:?}");
+        assert_eq!(session.counters().board_restarts, 1);
     }
 
     fn fix(source: protocol::FixSource, num_sats: Option<u8>) -> Message {

@@ -533,6 +533,7 @@ function updatePanels(state) {
   setText('crc-errors', String(counters.crc_errors));
   setText('frames-lost', String(counters.frames_lost));
   setText('reconnects', String(counters.reconnects));
+  setText('board-restarts', String(counters.board_restarts));
   setText('clock', counters.clock_synchronised ? 'synchronised' : 'not synchronised');
   setText('gps-fix', FIX_QUALITY[counters.gps_fix_quality] || `quality ${counters.gps_fix_quality}`);
   setText('gps-satellites', String(counters.gps_satellites));
