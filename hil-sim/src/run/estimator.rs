@@ -12,7 +12,7 @@
 use std::io;
 
 use host::camera::{CameraPipeline, CameraPipelineOptions, PinholeCamera};
-use host::ekf_slam::EkfPipeline;
+use host::ekf_slam::{EkfPipeline, EkfPipelineStats};
 use host::geometry::Pose2;
 use host::link::SensorEvent;
 use host::scan_match::ScanMatchError;
@@ -120,6 +120,14 @@ impl Estimator {
         match self {
             Estimator::Grid(pipeline) => Some(pipeline.stats()),
             Estimator::Ekf(_) | Estimator::Camera { .. } => None,
+        }
+    }
+
+    /// What the EKF method did so far; `None` for the other methods.
+    pub fn ekf_stats(&self) -> Option<EkfPipelineStats> {
+        match self {
+            Estimator::Ekf(pipeline) => Some(pipeline.stats()),
+            Estimator::Grid(_) | Estimator::Camera { .. } => None,
         }
     }
 

@@ -134,6 +134,11 @@ impl HostSide {
         self.estimator.slam_stats()
     }
 
+    /// What the EKF method did so far ([`Estimator::ekf_stats`]).
+    pub fn ekf_stats(&self) -> Option<host::ekf_slam::EkfPipelineStats> {
+        self.estimator.ekf_stats()
+    }
+
     /// A host that has received nothing, estimating with `estimator`.
     pub fn new(estimator: Estimator) -> HostSide {
         HostSide {

@@ -3,6 +3,7 @@
 //! from `summary.json`, which is byte-identical between runs of the same seed; these figures
 //! are not.
 
+use host::ekf_slam::EkfPipelineStats;
 use host::slam::{SlamStats, SlamTimings};
 use serde::Serialize;
 
@@ -45,6 +46,10 @@ pub struct PipelineTiming {
     /// over the run; `None` for the EKF method. Kept here rather than in `summary.json`, as
     /// under `--qemu` or on `--hardware` the scans the host receives depend on timing.
     pub slam_work: Option<SlamStats>,
+    /// What the EKF method did over the run: scans and fixes used, scans that came later than
+    /// its reorder window, reports of a GPS epoch already taken; `None` for the other methods.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ekf_work: Option<EkfPipelineStats>,
     /// The same figures per camera frame (its `scans` are frames) for the camera method:
     /// the wall time of handing the pipeline one frame.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -82,6 +87,7 @@ impl PipelineTiming {
             slam_parts_first_1000_s: None,
             slam_parts_last_1000_s: None,
             slam_work: None,
+            ekf_work: None,
             camera_frames: None,
         }
     }

@@ -199,6 +199,7 @@ impl RunSummary {
                 slam_parts_first_1000_s: host.slam_parts_after_first_scans,
                 slam_parts_last_1000_s: host.slam_timings_of_last_scans(),
                 slam_work: host.slam_stats(),
+                ekf_work: host.ekf_stats(),
                 camera_frames: (!host.frame_step_us.is_empty())
                     .then(|| Box::new(PipelineTiming::from_step_times(&host.frame_step_us))),
                 ..PipelineTiming::from_step_times(&host.scan_step_us)
