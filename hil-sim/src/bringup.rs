@@ -110,6 +110,11 @@ pub struct BringUpReport {
     pub board_status: Option<StatusMsg>,
     /// Drift of the board clock against the host's, ppm (the same clock here: near 0).
     pub clock_drift_ppm: f64,
+    /// The longest an emulator, the firmware or the host's reader was left without a core
+    /// beyond its own wait, ms. A real sensor's line never pauses and a real host keeps reading; on a busy
+    /// machine the emulation can, and a pause longer than the telegram timeout (35 ms) or the
+    /// board's outgoing queue loses scans, which the board then counts.
+    pub longest_stall_ms: f64,
 }
 
 /// A circle of 20 m radius around the datum at 1.5 m/s.
@@ -170,6 +175,7 @@ pub fn run(options: BringUpOptions) -> io::Result<BringUpReport> {
         devices::spawn_gps_with(gps_link, gps, stop.clone(), GpsDeviceOptions::default());
 
     let host = read_host(&mut host_link.device, &options, &stop)?;
+    let board_stall_us = board.executor.longest_wake_delay_us();
     board.stop();
 
     let lms = lms_thread
@@ -222,6 +228,12 @@ pub fn run(options: BringUpOptions) -> io::Result<BringUpReport> {
             + stats.oversize,
         board_status: host.status,
         clock_drift_ppm: host.sync.clock().drift_ppm(),
+        longest_stall_ms: lms
+            .longest_stall_us
+            .max(gps.longest_stall_us)
+            .max(host.longest_stall_us)
+            .max(board_stall_us) as f64
+            * 1e-3,
     })
 }
 
@@ -239,20 +251,26 @@ struct HostView {
     values_per_scan: usize,
     fixes: u64,
     last_fix: Option<GpsFixMsg>,
+    /// The longest a read returned after its timeout, µs (see
+    /// [`BringUpReport::longest_stall_ms`]).
+    longest_stall_us: u64,
 }
 
 /// After the sensors stop, how long the host keeps reading so that what is in flight arrives.
 const DRAIN_S: f64 = 0.5;
+/// The longest the host drains after the sensors stopped, s.
+const MAX_DRAIN_S: f64 = 5.0;
 
 /// Reads the host link for the run's duration, pinging the board once a second; then stops
-/// the sensors (`stop`) and reads [`DRAIN_S`] longer.
+/// the sensors (`stop`) and reads on until no scan or fix came for [`DRAIN_S`] (at most
+/// [`MAX_DRAIN_S`]), so that what a busy machine held back still arrives.
 fn read_host(
     port: &mut serialport::TTYPort,
     options: &BringUpOptions,
     stop: &AtomicBool,
 ) -> io::Result<HostView> {
-    port.set_timeout(Duration::from_millis(20))
-        .map_err(io::Error::other)?;
+    let read_timeout = Duration::from_millis(20);
+    port.set_timeout(read_timeout).map_err(io::Error::other)?;
     let start = Instant::now();
     let mut view = HostView {
         reader: LinkReader::new(),
@@ -267,12 +285,20 @@ fn read_host(
         values_per_scan: 0,
         fixes: 0,
         last_fix: None,
+        longest_stall_us: 0,
     };
     let mut encoder = Encoder::new();
     let mut next_ping_s = 0.5;
     let mut last_state = None;
     let mut buf = [0u8; 8192];
-    while start.elapsed().as_secs_f64() < options.seconds + DRAIN_S {
+    let mut last_reading_s = 0.0_f64;
+    loop {
+        let elapsed_s = start.elapsed().as_secs_f64();
+        let drained = elapsed_s >= options.seconds + DRAIN_S
+            && elapsed_s >= last_reading_s.max(options.seconds) + DRAIN_S;
+        if drained || elapsed_s >= options.seconds + MAX_DRAIN_S {
+            break;
+        }
         let now_s = start.elapsed().as_secs_f64();
         if now_s >= options.seconds {
             stop.store(true, Ordering::Relaxed);
@@ -286,7 +312,13 @@ fn read_host(
                 .map_err(|e| io::Error::other(e.to_string()))?;
             port.write_all(frame)?;
         }
-        let n = match port.read(&mut buf) {
+        let read_started = Instant::now();
+        let read = port.read(&mut buf);
+        let late = read_started.elapsed().saturating_sub(read_timeout);
+        view.longest_stall_us = view
+            .longest_stall_us
+            .max(u64::try_from(late.as_micros()).unwrap_or(u64::MAX));
+        let n = match read {
             Ok(n) => n,
             Err(e) if e.kind() == io::ErrorKind::TimedOut => continue,
             Err(e) => return Err(e),
@@ -296,6 +328,7 @@ fn read_host(
             view.sync.observe(&received.message, recv_s);
             match received.message {
                 Message::Scan(scan) => {
+                    last_reading_s = recv_s;
                     view.scans += 1;
                     view.first_scan_s.get_or_insert(recv_s);
                     view.first_scan_stamp_us.get_or_insert(scan.stamp_us);
@@ -308,6 +341,7 @@ fn read_host(
                     view.values_per_scan = scan.values.len();
                 }
                 Message::GpsFix(fix) => {
+                    last_reading_s = recv_s;
                     view.fixes += 1;
                     view.last_fix = Some(fix);
                 }

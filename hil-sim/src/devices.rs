@@ -80,6 +80,9 @@ pub struct DeviceExit<E> {
     pub link: PtyLink,
     /// Bytes dropped because the board did not read them.
     pub bytes_dropped: u64,
+    /// The longest the adapter woke later than it asked to, µs: how long the machine left it
+    /// without a core. The emulated line pauses that long where a real sensor's never does.
+    pub longest_stall_us: u64,
     /// The I/O error that ended the adapter; `None` when it was stopped.
     pub error: Option<io::Error>,
 }
@@ -90,6 +93,7 @@ impl<E: core::fmt::Debug> core::fmt::Debug for DeviceExit<E> {
             .field("emulator", &self.emulator)
             .field("link", &self.link.board_path())
             .field("bytes_dropped", &self.bytes_dropped)
+            .field("longest_stall_us", &self.longest_stall_us)
             .field("error", &self.error)
             .finish()
     }
@@ -201,12 +205,18 @@ fn run<E: Emulated>(
     let start = Instant::now();
     let now_us = || u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
     let mut bytes_dropped = 0;
+    let mut longest_stall_us = 0;
+    // When the last wait was to end at the latest.
+    let mut wake_by_us: Option<u64> = None;
     let mut buf = [0u8; 4096];
     let error = loop {
         if stop.load(Ordering::Relaxed) {
             break None;
         }
         let now = now_us();
+        if let Some(by_us) = wake_by_us {
+            longest_stall_us = longest_stall_us.max(now.saturating_sub(by_us));
+        }
         on_tick(&mut emulator, now);
         let board_baud = match link.board_baud() {
             Ok(baud) => baud,
@@ -224,6 +234,7 @@ fn run<E: Emulated>(
         if let Err(e) = link.device.set_timeout(Duration::from_micros(wait_us)) {
             break Some(io::Error::other(e));
         }
+        wake_by_us = Some(now_us() + wait_us);
         match link.device.read(&mut buf) {
             Ok(n) => {
                 let host_baud = match link.board_baud() {
@@ -240,6 +251,7 @@ fn run<E: Emulated>(
         emulator,
         link,
         bytes_dropped,
+        longest_stall_us,
         error,
     }
 }

@@ -3,13 +3,16 @@
 //! It is embassy's raw executor on a host thread, like embassy's std executor, plus what a
 //! lock-step simulation needs: [`ExecutorHandle::idle_epoch`] says whether the executor is
 //! idle (every task waits for I/O or a timer) and counts how often it went idle, so a caller
-//! can tell that nothing ran between two looks; [`ExecutorHandle::stop`] ends the thread.
+//! can tell that nothing ran between two looks; [`ExecutorHandle::stop`] ends the thread;
+//! [`ExecutorHandle::longest_wake_delay_us`] says how long a woken task waited at most for
+//! the thread to poll it (on a busy machine, for a core).
 //!
 //! Embassy calls the `__pender` function below whenever a task is woken; it marks the
 //! executor busy before the thread polls again.
 
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
+use std::time::Instant;
 
 use embassy_executor::{Spawner, raw};
 
@@ -32,6 +35,10 @@ struct State {
     stop: bool,
     /// Polls that panicked (the thread ends after the first).
     panics: u32,
+    /// When the first task woken since the last poll was woken.
+    woken_at: Option<Instant>,
+    /// The longest from a wake to the poll that followed it, µs.
+    longest_wake_delay_us: u64,
 }
 
 impl Signal {
@@ -43,6 +50,7 @@ impl Signal {
         let mut state = self.lock();
         state.pending = true;
         state.idle = false;
+        state.woken_at.get_or_insert_with(Instant::now);
         self.changed.notify_all();
     }
 }
@@ -76,6 +84,11 @@ impl ExecutorHandle {
     pub fn idle_epoch(&self) -> Option<u64> {
         let state = self.signal.lock();
         (state.idle && !state.pending).then_some(state.epoch)
+    }
+
+    /// The longest a woken task waited for the thread to poll it, µs.
+    pub fn longest_wake_delay_us(&self) -> u64 {
+        self.signal.lock().longest_wake_delay_us
     }
 
     /// How many times a task panicked (the executor stops at the first).
@@ -149,6 +162,11 @@ pub fn spawn(
                 }
                 state.pending = false;
                 state.idle = false;
+                if let Some(woken_at) = state.woken_at.take() {
+                    let delay_us =
+                        u64::try_from(woken_at.elapsed().as_micros()).unwrap_or(u64::MAX);
+                    state.longest_wake_delay_us = state.longest_wake_delay_us.max(delay_us);
+                }
             }
         })?;
     Ok(ExecutorHandle {

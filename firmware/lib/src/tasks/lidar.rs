@@ -148,7 +148,14 @@ impl<P: SerialRx + SerialTx + BaudRate> Lidar<'_, P> {
                 return;
             }
         }
-        self.drain(now_us).await;
+        // With bytes still queued the line is not quiet, whatever the clock says: the receiver
+        // judges a pause only once it has read everything that arrived.
+        self.drain(if behind > 0 {
+            self.last_stamp_us
+        } else {
+            now_us
+        })
+        .await;
     }
 
     async fn on_timer(&mut self) {
