@@ -239,8 +239,14 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
         let (mut position_m, mut heading_rad) = (0.0_f64, 0.0_f64);
         for (h, e) in h_poses.iter().zip(&e_poses) {
             let (h, e) = (pose(h), pose(e));
+            assert!(
+                h.iter().chain(&e).all(|v| v.is_finite()),
+                "{file}: {h:?} {e:?}"
+            );
+            let turn = (h[2] - e[2] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
             position_m = position_m.max((h[0] - e[0]).hypot(h[1] - e[1]));
-            heading_rad = heading_rad.max((h[2] - e[2]).abs());
+            heading_rad = heading_rad.max(turn.abs());
         }
         println!(
             "{file}: estimates differ by up to {:.1} mm and {:.2} mrad",

@@ -107,8 +107,9 @@ pub struct EkfPipeline {
     trajectory: PoseHistory,
     /// Events waiting to be used in board-time order.
     order: BoardTimeOrder,
-    /// The UTC epoch (s since midnight) of the last fix handed to the method.
-    last_epoch_s: Option<f64>,
+    /// The UTC epoch (s since midnight) of the last fix handed to the method, and that
+    /// report's [`report_rank`].
+    last_epoch: Option<(f64, u8)>,
     stats: EkfPipelineStats,
 }
 
@@ -143,7 +144,7 @@ impl EkfPipeline {
             max_range_m: options.max_range_m,
             trajectory: PoseHistory::new(options.trajectory.clone()),
             order: BoardTimeOrder::new(options.reorder_window_s),
-            last_epoch_s: None,
+            last_epoch: None,
             stats: EkfPipelineStats::default(),
         }
     }
@@ -163,13 +164,17 @@ impl EkfPipeline {
     }
 
     /// Whether `fix` reports an epoch already taken or held; a held report of the epoch is
-    /// replaced by `fix` when `fix` says more about its error.
+    /// replaced by `fix` when `fix` says more about its error. A report that says more than
+    /// the one already taken (which may have given no measurement at all: an RMC without
+    /// HDOP, its GGA arriving after the window) is used as well.
     fn is_repeated_report(&mut self, fix: &GpsFix) -> bool {
         let Some(epoch_s) = fix.utc_time_s else {
             return false;
         };
-        if self.last_epoch_s == Some(epoch_s) {
-            return true;
+        if let Some((taken_s, taken_rank)) = self.last_epoch
+            && taken_s == epoch_s
+        {
+            return report_rank(fix) <= taken_rank;
         }
         for held in self.order.pending_mut() {
             if let SensorEvent::Fix { fix: held_fix, .. } = held
@@ -226,8 +231,8 @@ impl EkfPipeline {
             SensorEvent::Fix {
                 board_time_s, fix, ..
             } => {
-                if fix.utc_time_s.is_some() {
-                    self.last_epoch_s = fix.utc_time_s;
+                if let Some(epoch_s) = fix.utc_time_s {
+                    self.last_epoch = Some((epoch_s, report_rank(fix)));
                 }
                 self.on_fix(*board_time_s, fix);
             }
@@ -459,5 +464,24 @@ mod tests {
         // The GGA's HDOP gives the measurement its covariance; an RMC alone has none.
         assert_eq!(stats.fixes, 3, "{stats:?}");
         assert_eq!(stats.scans_out_of_order, 0, "{stats:?}");
+    }
+
+    #[test]
+    fn a_better_report_after_the_window_is_still_used() {
+        let as_they_come = EkfPipelineOptions {
+            reorder_window_s: 0.0,
+            ..EkfPipelineOptions::default()
+        };
+        let mut events = Vec::new();
+        for second in 0..3 {
+            let t0 = f64::from(second);
+            events.push(scan(t0));
+            // The RMC is taken at once and gives no measurement (no HDOP); its GGA does.
+            events.push(fix(t0 + 0.01, 3600.0 + t0, FixSource::Rmc, None));
+            events.push(fix(t0 + 0.08, 3600.0 + t0, FixSource::Gga, Some(1.0)));
+            events.push(fix(t0 + 0.09, 3600.0 + t0, FixSource::Gll, None));
+        }
+        let stats = run(&as_they_come, &events);
+        assert_eq!((stats.fixes, stats.fixes_repeated), (3, 3), "{stats:?}");
     }
 }

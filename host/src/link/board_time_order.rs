@@ -22,6 +22,10 @@ use super::SensorEvent;
 /// GPS sentence at 4 800 Bd (0.15 s).
 pub const DEFAULT_WINDOW_S: f64 = 0.25;
 
+/// The most events held: when stamps stop advancing (a frozen board clock, a recording whose
+/// stamps are all zero), the oldest go on rather than pile up.
+pub const MAX_HELD: usize = 1024;
+
 /// A reorder buffer in board time. See the [module documentation](self).
 #[derive(Debug, Clone)]
 pub struct BoardTimeOrder {
@@ -70,7 +74,11 @@ impl BoardTimeOrder {
             .rposition(|held| held.board_time_s() <= stamp_s)
             .map_or(0, |i| i + 1);
         self.pending.insert(at, event);
-        self.due()
+        let mut due = self.due();
+        while self.pending.len() > MAX_HELD {
+            due.extend(self.pending.pop_front());
+        }
+        due
     }
 
     /// The held events, oldest first, for a caller that merges a new event into one already
@@ -169,6 +177,15 @@ mod tests {
         // The board restarted its clock.
         assert_eq!(times(&order.push(scan(0.5))), [0.5]);
         assert_eq!(times(&order.drain()), [10.0]);
+    }
+
+    #[test]
+    fn a_clock_that_stands_still_does_not_pile_events_up() {
+        let mut order = BoardTimeOrder::new(0.25);
+        let handed_on: usize = (0..MAX_HELD + 10)
+            .map(|_| order.push(scan(1.0)).len())
+            .sum();
+        assert_eq!((handed_on, order.len()), (10, MAX_HELD));
     }
 
     #[test]

@@ -23,7 +23,9 @@ pub struct LinkCounters {
     pub gps_satellites: u8,
     /// Times the serial port was reopened.
     pub reconnects: u64,
-    /// Times the board restarted its clock (see [`super::LinkSession`]).
+    /// Times the board restarted its clock (see [`super::LinkSession`]); 0 from a daemon that
+    /// does not report it.
+    #[serde(default)]
     pub board_restarts: u64,
     /// Whether the board clock is synchronised to host time.
     pub clock_synchronised: bool,

@@ -115,7 +115,8 @@ impl LinkSession {
                 self.note_board_clock(stamp_us, recv_s);
             }
             let boot_offset_us = self.boot_offset_us;
-            let board_time_s = |stamp_us: u64| (boot_offset_us + stamp_us) as f64 * 1e-6;
+            let board_time_s =
+                |stamp_us: u64| boot_offset_us.saturating_add(stamp_us) as f64 * 1e-6;
             self.sync.observe(&received.message, recv_s);
             let clock = self.sync.clock();
             let host_time = |stamp_us: u64| {
@@ -171,11 +172,16 @@ impl LinkSession {
     /// behind the newest is a restart (see the [module documentation](self)).
     fn note_board_clock(&mut self, stamp_us: u64, recv_s: f64) {
         match self.newest_stamp {
-            Some((newest_us, newest_recv_s)) if stamp_us + RESTART_BEHIND_US < newest_us => {
+            Some((newest_us, newest_recv_s))
+                if stamp_us.saturating_add(RESTART_BEHIND_US) < newest_us =>
+            {
                 // The new boot's stamp comes after the old boot's newest by the host time
                 // between them (at least 1 µs).
                 let elapsed_us = ((recv_s - newest_recv_s).max(0.0) * 1e6).round() as u64;
-                self.boot_offset_us += newest_us + elapsed_us.saturating_sub(stamp_us).max(1);
+                self.boot_offset_us = self
+                    .boot_offset_us
+                    .saturating_add(newest_us)
+                    .saturating_add(elapsed_us.saturating_sub(stamp_us).max(1));
                 self.newest_stamp = Some((stamp_us, recv_s));
                 self.sync = TimeSync::new();
                 self.counters.board_restarts += 1;
