@@ -116,6 +116,10 @@ fn outdoor_run_with_every_fault_accounts_for_every_telegram() {
     assert!(summary.gps_fixes_emitted > 80, "{summary:#?}");
     assert!(summary.gps_fixes_delivered <= summary.gps_fixes_emitted);
     assert!(summary.gps_fixes_delivered > summary.gps_fixes_emitted / 2);
+    // The landmark map is scored against the world's trees, each tree recorded once.
+    let map = summary.map.expect("the EKF method's map is scored");
+    assert!(map.trees_mapped > 10, "{map:?}");
+    assert_eq!(map.extra_records, 0, "{map:?}");
 }
 
 #[test]
@@ -152,6 +156,7 @@ fn same_arguments_give_identical_outputs() {
         "summary.json",
         "landmarks.tsv",
         "world.tsv",
+        "map.tsv",
     ] {
         let (x, y) = (
             fs::read(a.join(file)).unwrap(),

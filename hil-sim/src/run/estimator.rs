@@ -12,7 +12,7 @@
 use std::io;
 
 use host::camera::{CameraPipeline, CameraPipelineOptions, PinholeCamera};
-use host::ekf_slam::{EkfPipeline, EkfPipelineStats};
+use host::ekf_slam::{EkfPipeline, EkfPipelineStats, MappedLandmark};
 use host::geometry::Pose2;
 use host::link::SensorEvent;
 use host::scan_match::ScanMatchError;
@@ -178,6 +178,15 @@ impl Estimator {
             }
             Estimator::Grid(_) | Estimator::Camera { .. } => None,
         })
+    }
+
+    /// The landmarks the EKF method mapped (none for the other methods), in the frame of
+    /// [`Self::trajectory`].
+    pub fn mapped_landmarks(&self) -> Vec<MappedLandmark> {
+        match self {
+            Estimator::Ekf(pipeline) => pipeline.mapped_landmarks(),
+            Estimator::Grid(_) | Estimator::Camera { .. } => Vec::new(),
+        }
     }
 
     /// How many scans the pipeline has placed so far.

@@ -139,6 +139,11 @@ impl HostSide {
         self.estimator.ekf_stats()
     }
 
+    /// The landmarks the EKF method mapped ([`Estimator::mapped_landmarks`]).
+    pub fn mapped_landmarks(&self) -> Vec<host::ekf_slam::MappedLandmark> {
+        self.estimator.mapped_landmarks()
+    }
+
     /// A host that has received nothing, estimating with `estimator`.
     pub fn new(estimator: Estimator) -> HostSide {
         HostSide {

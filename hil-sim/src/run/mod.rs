@@ -20,6 +20,9 @@
 //!   peak memory ([`pipeline_timing::PipelineTiming`]; the one output that differs between
 //!   runs);
 //! * `landmarks.tsv`, `world.tsv`: the world's landmarks and shapes, in the world frame;
+//! * with the EKF method, `map.tsv`: the landmarks it mapped, `x_m y_m diameter_m
+//!   observations`, in the frame of `trajectory.tsv`, scored against the world's trees in
+//!   `summary.json`'s `map` ([`map_quality`]);
 //! * with the camera method ([`RunOptions::camera`]), `camera_trajectory.tum` and
 //!   `camera_ground_truth.tum`: the camera's estimated and true path per frame, and once
 //!   GPS has aligned its map `camera_map.geojson` and `camera_map.kml` ([`camera_outcome`]),
@@ -36,6 +39,7 @@ pub mod camera_outcome;
 pub mod engine;
 pub mod estimator;
 pub mod host_side;
+pub mod map_quality;
 pub mod pipeline_timing;
 pub mod summary;
 pub mod tap;
@@ -47,6 +51,7 @@ use std::sync::mpsc::SyncSender;
 
 use firmware::sick::BringUpConfig;
 use firmware::tasks::gps::GpsOptions;
+use host::ekf_slam::MappedLandmark;
 use protocol::RangeUnit;
 
 use crate::board::{self, BoardConfig};
@@ -67,6 +72,7 @@ use engine::{Endpoint, Engine, Sensors, Wiring};
 pub use engine::{Line, ReportedBaud};
 use estimator::Estimator;
 use host_side::{DecodedScan, HostSide, ScanRecord};
+use map_quality::MapQuality;
 pub use summary::RunSummary;
 
 /// What to run.
@@ -269,7 +275,17 @@ fn run_chain(
             .map(|camera| CameraFeed::new(&scenario, camera, options.seed))
             .transpose()?,
     };
-    let (summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
+    let (mut summary, received) = execute(chain, options, options.duration_s, lines, relay)?;
+    if !received.map.is_empty() {
+        let origin = received
+            .records
+            .first()
+            .map(|r| r.truth)
+            .filter(|_| !received.geo_referenced);
+        summary.map = Some(MapQuality::new(&received.map, scenario.landmarks(), |p| {
+            summary::world_from_map(origin, p)
+        }));
+    }
     write_outputs(&options.out, &received, &summary)?;
     scenario.write_landmarks_tsv(BufWriter::new(fs::File::create(
         options.out.join("landmarks.tsv"),
@@ -650,6 +666,8 @@ fn gps_rate_for(baud: u32) -> u32 {
 /// What the host received, for the outputs.
 struct Received {
     records: Vec<ScanRecord>,
+    /// The EKF method's landmarks, in the frame of `records`' estimates.
+    map: Vec<MappedLandmark>,
     geo_referenced: bool,
     scans: Vec<DecodedScan>,
     fixes: Vec<protocol::GpsFixMsg>,
@@ -659,6 +677,7 @@ impl Received {
     fn take(host: &mut HostSide) -> Received {
         Received {
             records: std::mem::take(&mut host.records),
+            map: host.mapped_landmarks(),
             geo_referenced: host.geo_referenced,
             scans: std::mem::take(&mut host.scans),
             fixes: std::mem::take(&mut host.fixes),
@@ -705,6 +724,17 @@ fn write_outputs(out: &Path, received: &Received, summary: &RunSummary) -> io::R
         writeln!(fixes)?;
     }
     fixes.flush()?;
+    if !received.map.is_empty() {
+        let mut map = BufWriter::new(fs::File::create(out.join("map.tsv"))?);
+        writeln!(map, "# x_m y_m diameter_m observations ({frame})")?;
+        for landmark in &received.map {
+            let [x, y] = landmark.position_in_map;
+            let diameter_m = landmark.info.diameter_m.unwrap_or(f64::NAN);
+            let observations = landmark.info.observations;
+            writeln!(map, "{x:.6} {y:.6} {diameter_m:.4} {observations}")?;
+        }
+        map.flush()?;
+    }
     let json = serde_json::to_string_pretty(summary).map_err(io::Error::other)?;
     fs::write(out.join("summary.json"), json + "\n")?;
     let json = serde_json::to_string_pretty(&summary.pipeline).map_err(io::Error::other)?;

@@ -44,6 +44,9 @@ pub struct RunSummary {
     pub counted: Counted,
     /// The host's estimate against the truth.
     pub estimate: EstimateError,
+    /// The EKF method's landmark map against the world's trees (a simulated outdoor world).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map: Option<super::map_quality::MapQuality>,
     /// The camera method's path against the camera's truth (`--method camera`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera: Option<super::camera_outcome::CameraOutcome>,
@@ -132,6 +135,17 @@ pub fn in_map(origin: Option<RobotState>, truth: &RobotState) -> [f64; 3] {
     ]
 }
 
+/// The world position of `point_in_map`, a position in the map frame whose origin is
+/// `origin` (the truth at the first scan; `None`: the map frame is the world frame).
+pub fn world_from_map(origin: Option<RobotState>, point_in_map: [f64; 2]) -> [f64; 2] {
+    let Some(o) = origin else {
+        return point_in_map;
+    };
+    let (sin, cos) = o.theta_rad.sin_cos();
+    let [x, y] = point_in_map;
+    [o.x_m + cos * x - sin * y, o.y_m + sin * x + cos * y]
+}
+
 impl RunSummary {
     /// The summary of a finished run.
     pub fn new<W: World>(options: &RunOptions, engine: &Engine<'_, W>, wall_s: f64) -> Self {
@@ -188,6 +202,7 @@ impl RunSummary {
                 final_status_received: status.is_some(),
             },
             estimate: estimate_error(&host.records, host.geo_referenced),
+            map: None,
             camera: host.camera_pipeline().map(|pipeline| {
                 super::camera_outcome::CameraOutcome::new(pipeline, &host.camera_records)
             }),

@@ -18,7 +18,7 @@ use std::io;
 
 use super::{
     ConstantVelocityModel, GpsOutcome, LandmarkObservation, LandmarkSlam, LandmarkSlamOptions,
-    PoseHistory, PoseHistoryOptions, RangeBearingModel, SubmapSlamOptions,
+    MappedLandmark, PoseHistory, PoseHistoryOptions, RangeBearingModel, SubmapSlamOptions,
 };
 use crate::geometry::Pose2;
 use crate::georef::{GpsMeasurement, GpsMeasurementOptions, LocalFrame};
@@ -312,6 +312,12 @@ impl EkfPipeline {
     /// (then its poses were not re-expressed).
     pub fn trajectory(&self) -> io::Result<Vec<StampedPose>> {
         self.trajectory.to_vec()
+    }
+
+    /// The mapped landmarks (global map and current local map) in the map frame, with their
+    /// covariances and what else is known of them (diameter, observations).
+    pub fn mapped_landmarks(&self) -> Vec<MappedLandmark> {
+        self.method.landmarks_in_map()
     }
 
     /// The mapped landmarks (global map and current local map) in the map frame.

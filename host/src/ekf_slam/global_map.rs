@@ -35,6 +35,14 @@ const FUSION_SIGMA_M: f64 = 1e-3;
 /// Confidence of the test that a recognised place agrees with the map's covariance.
 const PLACE_CONFIDENCE: f64 = 0.999;
 
+/// Standard deviations of their distance by which two records' trunks must overlap for the
+/// records to be taken as one trunk ([`GlobalMap::join`]).
+const OVERLAP_SIGMAS: f64 = 3.0;
+
+/// Confidence of the test that two records of one trunk estimate the same point, so that
+/// they are fused rather than the weaker one dropped.
+const SAME_POINT_CONFIDENCE: f64 = 0.999;
+
 /// What one join did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct JoinReport {
@@ -48,6 +56,9 @@ pub struct JoinReport {
     /// A place the history memory recognised was turned down: the map found it implausible
     /// and too few trees backed it ([`GlobalMap::join`]).
     pub place_rejected: bool,
+    /// Older records found to be of one trunk with another record and merged into it
+    /// ([`GlobalMap::join`]).
+    pub merged_records: usize,
 }
 
 /// The joined map. See the [module documentation](self).
@@ -65,9 +76,8 @@ pub struct GlobalMap {
     /// The number the next joined landmark gets.
     next_id: usize,
     /// For each landmark of the last joined local map, in its order, the number of the
-    /// landmark it stands as: its own, or the older one it was fused into. Only the last
-    /// join is kept, so the bookkeeping does not grow with the run: a joined landmark is only
-    /// ever fused away in its own join (fusions remove the newer record).
+    /// landmark it stands as: its own, or the one it was fused into or dropped for since.
+    /// Only the last join is kept, so the bookkeeping does not grow with the run.
     last_joined_ids: Vec<usize>,
 }
 
@@ -276,12 +286,109 @@ impl GlobalMap {
             .filter(|&&(_, old)| self.origin_map[old] + 1 < joined_map)
             .count();
         self.fuse(&pairs)?;
+        let merged_records = self.merge_records_of_one_trunk()?;
         Ok(JoinReport {
             fused: pairs.len(),
             added: count - pairs.len(),
             revisited,
             place_rejected,
+            merged_records,
         })
+    }
+
+    /// Merges records of one trunk that the joins kept apart, and returns how many records
+    /// went.
+    ///
+    /// A join pairs the new landmarks with the old ones only, so two records of a tree, once
+    /// both in the map, would stay apart for good: a thick trunk whose front edge was once
+    /// taken for a thin tree, or a thin one whose first sightings measured it too thick for
+    /// the diameter test. Two trunks cannot stand inside each other, so two records whose
+    /// circles overlap beyond doubt (their distance plus [`OVERLAP_SIGMAS`] standard
+    /// deviations of it, from the map's covariance, short of the sum of their radii) are of
+    /// one trunk. When their difference is within the covariance (the
+    /// [`SAME_POINT_CONFIDENCE`] chi-square gate), they are fused as one point; otherwise
+    /// one of them is biased (a part of the trunk fitted as a whole one), and the record
+    /// with fewer observations is dropped (marginalised out). Records without a diameter
+    /// (features other than trunks) are left alone.
+    fn merge_records_of_one_trunk(&mut self) -> Result<usize, EkfError> {
+        let count = self.info.len();
+        let same_point_gate = chi_square_quantile(2, SAME_POINT_CONFIDENCE);
+        // (distance, a, b, same point) for every overlapping pair.
+        let mut overlapping = Vec::new();
+        for a in 0..count {
+            let Some(diameter_a) = self.info[a].diameter_m else {
+                continue;
+            };
+            let la = self.state.landmark(a);
+            for b in a + 1..count {
+                let Some(diameter_b) = self.info[b].diameter_m else {
+                    continue;
+                };
+                let lb = self.state.landmark(b);
+                let difference = nalgebra::Vector2::new(la[0] - lb[0], la[1] - lb[1]);
+                let distance_m = difference.norm();
+                let radii_m = 0.5 * (diameter_a + diameter_b);
+                if distance_m >= radii_m {
+                    continue;
+                }
+                let covariance = self.difference_covariance(a, b);
+                let direction = if distance_m > 1e-9 {
+                    difference / distance_m
+                } else {
+                    nalgebra::Vector2::x()
+                };
+                let sigma_m = direction.dot(&(covariance * direction)).max(0.0).sqrt();
+                if distance_m + OVERLAP_SIGMAS * sigma_m >= radii_m {
+                    continue;
+                }
+                let noise = Matrix2::identity() * FUSION_SIGMA_M.powi(2);
+                let same_point = (covariance + noise).try_inverse().is_some_and(|inverse| {
+                    difference.dot(&(inverse * difference)) <= same_point_gate
+                });
+                overlapping.push((distance_m, a, b, same_point));
+            }
+        }
+        overlapping.sort_by(|x, y| x.0.total_cmp(&y.0));
+        // Each record in at most one merge per join; `(removed, kept)` pairs.
+        let mut taken = vec![false; count];
+        let (mut fused, mut dropped) = (Vec::new(), Vec::new());
+        for (_, a, b, same_point) in overlapping {
+            if taken[a] || taken[b] {
+                continue;
+            }
+            taken[a] = true;
+            taken[b] = true;
+            let (removed, kept) = if self.info[a].observations >= self.info[b].observations {
+                (b, a)
+            } else {
+                (a, b)
+            };
+            if same_point {
+                fused.push((removed, kept));
+            } else {
+                dropped.push((removed, kept));
+            }
+        }
+        let merged = fused.len() + dropped.len();
+        // Fusing removes records, so the dropped pairs are renumbered after it.
+        let mut gone: Vec<usize> = fused.iter().map(|&(removed, _)| removed).collect();
+        gone.sort_unstable();
+        self.fuse(&fused)?;
+        let renumbered = |index: usize| index - gone.partition_point(|&g| g < index);
+        let dropped: Vec<(usize, usize)> = dropped
+            .iter()
+            .map(|&(removed, kept)| (renumbered(removed), renumbered(kept)))
+            .collect();
+        self.drop_records(&dropped);
+        Ok(merged)
+    }
+
+    /// Covariance of `l_a − l_b`.
+    fn difference_covariance(&self, a: usize, b: usize) -> Matrix2<f64> {
+        let p = self.state.covariance();
+        let (oa, ob) = (self.state.landmark_offset(a), self.state.landmark_offset(b));
+        let block = |r: usize, c: usize| p.fixed_view::<2, 2>(r, c).into_owned();
+        block(oa, oa) + block(ob, ob) - block(oa, ob) - block(ob, oa)
     }
 
     /// Whether the pairs `(new, old)` of a recognised place may be fused: always when the
@@ -391,20 +498,44 @@ impl GlobalMap {
             .collect()
     }
 
-    /// Imposes `l_new = l_old` for every pair and removes the new records.
+    /// Imposes `l_removed = l_kept` for every pair `(removed, kept)` and removes the first
+    /// record of each.
     fn fuse(&mut self, pairs: &[(usize, usize)]) -> Result<(), EkfError> {
         if pairs.is_empty() {
             return Ok(());
         }
         self.state.merge_landmarks(pairs, FUSION_SIGMA_M)?;
-        let mut removed: Vec<usize> = pairs.iter().map(|&(new, _)| new).collect();
-        for &(new, old) in pairs {
-            let record = self.info[new];
-            self.info[old].merge(&record);
-            // `new` is a landmark of the last join, numbered from its first.
-            let first_id = self.next_id - self.last_joined_ids.len();
-            self.last_joined_ids[self.ids[new] - first_id] = self.ids[old];
+        for &(removed, kept) in pairs {
+            let record = self.info[removed];
+            self.info[kept].merge(&record);
         }
+        self.forget(pairs);
+        Ok(())
+    }
+
+    /// Removes (marginalises out) the first record of every pair `(removed, kept)`, the
+    /// second standing for it from then on.
+    fn drop_records(&mut self, pairs: &[(usize, usize)]) {
+        if pairs.is_empty() {
+            return;
+        }
+        let removed: Vec<usize> = pairs.iter().map(|&(removed, _)| removed).collect();
+        self.state.remove_landmarks(&removed);
+        self.forget(pairs);
+    }
+
+    /// The bookkeeping of records `(removed, kept)` whose state entries are gone: what stood
+    /// as the removed one stands as the kept one, which counts as first mapped at the earlier
+    /// of the two.
+    fn forget(&mut self, pairs: &[(usize, usize)]) {
+        for &(removed, kept) in pairs {
+            let (from, to) = (self.ids[removed], self.ids[kept]);
+            for id in self.last_joined_ids.iter_mut().filter(|id| **id == from) {
+                *id = to;
+            }
+            self.origin_map[kept] = self.origin_map[kept].min(self.origin_map[removed]);
+        }
+        let mut removed: Vec<usize> = pairs.iter().map(|&(removed, _)| removed).collect();
         removed.sort_unstable();
         let keep = |index: usize| removed.binary_search(&index).is_err();
         self.info = (0..self.info.len())
@@ -419,7 +550,6 @@ impl GlobalMap {
             .filter(|&i| keep(i))
             .map(|i| self.ids[i])
             .collect();
-        Ok(())
     }
 }
 
@@ -427,6 +557,7 @@ impl GlobalMap {
 mod tests {
     use super::*;
     use crate::ekf_slam::local_map::seen_once;
+    use crate::ekf_slam::{LandmarkObservation, RangeBearingModel};
 
     const TREES: [[f64; 2]; 6] = [
         [8.0, 3.0],
@@ -486,6 +617,94 @@ mod tests {
         assert_eq!(found[0], Some(global.state().landmark(0)));
         assert_eq!(found[1], Some(global.state().landmark(5)));
         assert_eq!(found[2..], [None, None]);
+    }
+
+    /// A local map at the origin of its base that saw each trunk `(position, diameter)` once,
+    /// with a laser's precision (3 cm, 0.25°).
+    fn trunks_seen_once(trunks: &[([f64; 2], f64)]) -> LocalMap {
+        let observations: Vec<LandmarkObservation> = trunks
+            .iter()
+            .map(|&([x, y], diameter_m)| LandmarkObservation {
+                range_m: x.hypot(y),
+                bearing_rad: y.atan2(x),
+                diameter_m: Some(diameter_m),
+            })
+            .collect();
+        let mut local = LocalMap::new(DVector::zeros(3), DMatrix::zeros(3, 3));
+        local
+            .observe(
+                &observations,
+                &RangeBearingModel {
+                    sigma_range_m: 0.03,
+                    sigma_bearing_rad: 0.25f64.to_radians(),
+                    ..RangeBearingModel::default()
+                },
+                &AssociationOptions::default(),
+            )
+            .expect("first observations");
+        local
+    }
+
+    /// Two thick trunks side by side (their bark 0.1 m apart) and two thin trees.
+    const TRUNKS: [([f64; 2], f64); 4] = [
+        ([10.0, 0.0], 1.0),
+        ([10.0, 1.1], 1.0),
+        ([15.0, -5.0], 0.4),
+        ([12.0, 6.0], 0.3),
+    ];
+
+    /// The global map after joining `TRUNKS`, then a local map that saw `TRUNKS` but the one
+    /// numbered `unseen` (a local map drops an observation that close to a landmark it holds
+    /// as ambiguous), and `extra`.
+    fn joined_with(extra: ([f64; 2], f64), unseen: Option<usize>) -> (GlobalMap, JoinReport) {
+        let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
+        let options = AssociationOptions::default();
+        global
+            .join(trunks_seen_once(&TRUNKS), &options, &[])
+            .expect("first join");
+        let mut second: Vec<([f64; 2], f64)> = (0..TRUNKS.len())
+            .filter(|&i| Some(i) != unseen)
+            .map(|i| TRUNKS[i])
+            .collect();
+        second.push(extra);
+        let report = global
+            .join(trunks_seen_once(&second), &options, &[])
+            .expect("second join");
+        (global, report)
+    }
+
+    #[test]
+    fn the_front_of_a_thick_trunk_taken_for_a_thin_tree_is_dropped() {
+        // The front 0.4 m of the first trunk, fitted as a trunk of its own.
+        let (global, report) = joined_with(([9.6, 0.0], 0.5), Some(0));
+        assert_eq!(report.merged_records, 1);
+        assert_eq!(global.state().landmark_count(), TRUNKS.len());
+        for (i, &(position, _)) in TRUNKS.iter().enumerate() {
+            let found = global.state().landmark(i);
+            assert!((found[0] - position[0]).hypot(found[1] - position[1]) < 1e-6);
+        }
+        assert_eq!(global.landmark_info()[0].diameter_m, Some(1.0));
+    }
+
+    #[test]
+    fn two_records_of_a_trunk_that_agree_on_its_place_are_fused() {
+        // The last tree again, 3 cm off and measured too thick to pass the diameter test.
+        let (global, report) = joined_with(([12.03, 6.0], 0.8), Some(3));
+        assert_eq!(report.merged_records, 1);
+        assert_eq!(global.state().landmark_count(), TRUNKS.len());
+        let found = global.state().landmark(3);
+        assert!(found[0] > 12.0 && found[0] < 12.03, "{found:?}");
+        let info = global.landmark_info()[3];
+        assert_eq!(info.observations, 2);
+        assert!(info.diameter_m.is_some_and(|d| d > 0.3 && d < 0.8));
+    }
+
+    #[test]
+    fn trunks_that_stand_apart_stay_apart() {
+        // A thin tree just beyond the second trunk's bark.
+        let (global, report) = joined_with(([10.0, 1.95], 0.3), None);
+        assert_eq!(report.merged_records, 0);
+        assert_eq!(global.state().landmark_count(), TRUNKS.len() + 1);
     }
 
     #[test]

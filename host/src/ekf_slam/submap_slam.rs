@@ -56,6 +56,8 @@ pub struct SubmapSlamStats {
     pub rejected_places: usize,
     /// Updates skipped because the innovation covariance was not positive definite.
     pub failed_updates: usize,
+    /// Older records found to be of one trunk with another and merged into it when joining.
+    pub merged_records: usize,
 }
 
 /// EKF SLAM with local maps. See the [module documentation](self).
@@ -212,6 +214,7 @@ impl<M: MotionModel> SubmapSlam<M> {
         }
         self.stats.joins += 1;
         self.stats.fused += report.fused;
+        self.stats.merged_records += report.merged_records;
         if report.revisited >= 2 {
             self.stats.loop_closures += 1;
         }
