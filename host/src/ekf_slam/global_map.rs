@@ -56,7 +56,7 @@ pub struct JoinReport {
     /// A place the history memory recognised was turned down: the map found it implausible
     /// and too few trees backed it ([`GlobalMap::join`]).
     pub place_rejected: bool,
-    /// Older records found to be of one trunk with another record and merged into it
+    /// Records found to be of one trunk with another record and merged into it
     /// ([`GlobalMap::join`]).
     pub merged_records: usize,
 }
@@ -79,6 +79,9 @@ pub struct GlobalMap {
     /// landmark it stands as: its own, or the one it was fused into or dropped for since.
     /// Only the last join is kept, so the bookkeeping does not grow with the run.
     last_joined_ids: Vec<usize>,
+    /// The numbers that stopped standing when the last join fused records of one trunk, each
+    /// with the number it was fused into (`(from, to)`); only the last join's are kept.
+    last_merged_ids: Vec<(usize, usize)>,
 }
 
 impl GlobalMap {
@@ -96,6 +99,7 @@ impl GlobalMap {
             ids: Vec::new(),
             next_id: 0,
             last_joined_ids: Vec::new(),
+            last_merged_ids: Vec::new(),
         }
     }
 
@@ -106,10 +110,18 @@ impl GlobalMap {
     }
 
     /// For each landmark of the last joined local map, in its order, the number of the
-    /// landmark it now stands as: its own number, or that of the older landmark it was fused
-    /// into. Those numbers stay valid for [`GlobalMap::positions_by_id`] from then on.
+    /// landmark it now stands as: its own number, or that of the landmark it was fused into.
+    /// A later join may merge a record of one trunk into another ([`GlobalMap::join`]); whoever
+    /// keeps these numbers follows [`GlobalMap::last_merged_ids`] after each join.
     pub fn last_joined_ids(&self) -> &[usize] {
         &self.last_joined_ids
+    }
+
+    /// The numbers that stopped standing when the last join fused records of one trunk, as
+    /// `(from, to)`: what stood as `from` stands as `to`. A record dropped as biased is not
+    /// listed; its number no longer stands.
+    pub fn last_merged_ids(&self) -> &[(usize, usize)] {
+        &self.last_merged_ids
     }
 
     /// Where the map now puts each landmark numbered in `ids`; `None` for numbers that do not
@@ -286,7 +298,10 @@ impl GlobalMap {
             .filter(|&&(_, old)| self.origin_map[old] + 1 < joined_map)
             .count();
         self.fuse(&pairs)?;
-        let merged_records = self.merge_records_of_one_trunk()?;
+        // A merge that fails leaves the map as it was (the fusion update changes nothing when
+        // it fails), and the join stands.
+        self.last_merged_ids.clear();
+        let merged_records = self.merge_records_of_one_trunk().unwrap_or(0);
         Ok(JoinReport {
             fused: pairs.len(),
             added: count - pairs.len(),
@@ -373,7 +388,12 @@ impl GlobalMap {
         // Fusing removes records, so the dropped pairs are renumbered after it.
         let mut gone: Vec<usize> = fused.iter().map(|&(removed, _)| removed).collect();
         gone.sort_unstable();
+        let merged_ids: Vec<(usize, usize)> = fused
+            .iter()
+            .map(|&(removed, kept)| (self.ids[removed], self.ids[kept]))
+            .collect();
         self.fuse(&fused)?;
+        self.last_merged_ids = merged_ids;
         let renumbered = |index: usize| index - gone.partition_point(|&g| g < index);
         let dropped: Vec<(usize, usize)> = dropped
             .iter()
@@ -696,6 +716,10 @@ mod tests {
         assert!(found[0] > 12.0 && found[0] < 12.03, "{found:?}");
         let info = global.landmark_info()[3];
         assert_eq!(info.observations, 2);
+        // The second record (numbered 7, the last of the second join) stands as the first.
+        assert_eq!(global.last_merged_ids(), &[(7, 3)]);
+        assert_eq!(global.last_joined_ids(), &[0, 1, 2, 3]);
+        assert_eq!(global.positions_by_id(&[7]), vec![None]);
         assert!(info.diameter_m.is_some_and(|d| d > 0.3 && d < 0.8));
     }
 

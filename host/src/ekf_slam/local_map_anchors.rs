@@ -43,6 +43,18 @@ impl LocalMapAnchors {
         });
     }
 
+    /// Follows the global map's merges of records of one trunk
+    /// ([`GlobalMap::last_merged_ids`]): a landmark that stood as `from` stands as `to`.
+    pub fn follow(&mut self, merged: &[(usize, usize)]) {
+        for &(from, to) in merged {
+            for id in self.maps.iter_mut().flat_map(|a| a.ids.iter_mut()) {
+                if *id == from {
+                    *id = to;
+                }
+            }
+        }
+    }
+
     /// Local maps recorded.
     pub fn len(&self) -> usize {
         self.maps.len()
@@ -81,6 +93,26 @@ mod tests {
     use super::*;
     use crate::ekf_slam::AssociationOptions;
     use crate::ekf_slam::local_map::seen_once;
+
+    #[test]
+    fn an_anchor_follows_its_landmark_into_the_record_it_was_merged_into() {
+        let trees = [[8.0, 3.0], [12.0, -4.0], [15.0, 6.0]];
+        let local = seen_once(&trees);
+        let mut global = GlobalMap::new(Pose2::IDENTITY, Matrix3::zeros());
+        let in_base: Vec<[f64; 2]> = (0..local.landmark_count())
+            .map(|i| local.state().landmark(i))
+            .collect();
+        global
+            .join(local, &AssociationOptions::default(), &[])
+            .expect("join");
+        let mut anchors = LocalMapAnchors::default();
+        // Recorded with the third tree numbered 9, a number merged into 2 since.
+        anchors.record(vec![0, 1, 9], in_base);
+        assert_eq!(anchors.bases_in_map(&global), vec![None]);
+        anchors.follow(&[(9, 2)]);
+        let base = anchors.bases_in_map(&global)[0].expect("three landmarks fit a base");
+        assert!(base.x_m.abs() < 1e-9 && base.y_m.abs() < 1e-9 && base.theta_rad.abs() < 1e-9);
+    }
 
     #[test]
     fn a_base_follows_its_landmarks_when_the_map_moves() {

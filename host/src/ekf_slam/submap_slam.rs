@@ -56,7 +56,7 @@ pub struct SubmapSlamStats {
     pub rejected_places: usize,
     /// Updates skipped because the innovation covariance was not positive definite.
     pub failed_updates: usize,
-    /// Older records found to be of one trunk with another and merged into it when joining.
+    /// Records found to be of one trunk with another and merged into it when joining.
     pub merged_records: usize,
 }
 
@@ -212,6 +212,7 @@ impl<M: MotionModel> SubmapSlam<M> {
             self.anchors
                 .record(self.global.last_joined_ids().to_vec(), landmarks_in_base);
         }
+        self.anchors.follow(self.global.last_merged_ids());
         self.stats.joins += 1;
         self.stats.fused += report.fused;
         self.stats.merged_records += report.merged_records;
