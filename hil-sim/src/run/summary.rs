@@ -1,6 +1,7 @@
 //! `summary.json` of a run: what was emitted, what arrived, what the system counted as lost,
 //! what was injected, and how far the host's estimate is from the truth.
 
+use host::geometry::{Pose2, wrap_angle_rad};
 use serde::Serialize;
 
 use super::RunOptions;
@@ -8,7 +9,6 @@ use super::engine::{Engine, EventsInjected};
 use super::pipeline_timing::PipelineTiming;
 use crate::emulators::StreamStart;
 use crate::faults::InjectedFaults;
-use crate::world::robot_state::wrap_angle_rad;
 use crate::world::{RobotState, World};
 
 /// The summary of one run. The first seven fields are the accounting.
@@ -123,27 +123,22 @@ pub struct EstimateError {
 
 /// `truth` in the map frame whose origin is `origin` (the truth at the first scan).
 pub fn in_map(origin: Option<RobotState>, truth: &RobotState) -> [f64; 3] {
-    let Some(o) = origin else {
-        return [truth.x_m, truth.y_m, truth.theta_rad];
+    let truth_in_world = Pose2::new(truth.x_m, truth.y_m, truth.theta_rad);
+    let truth_in_map = match origin {
+        Some(o) => Pose2::new(o.x_m, o.y_m, o.theta_rad)
+            .inverse()
+            .compose(truth_in_world),
+        None => truth_in_world,
     };
-    let (sin, cos) = o.theta_rad.sin_cos();
-    let (dx, dy) = (truth.x_m - o.x_m, truth.y_m - o.y_m);
-    [
-        cos * dx + sin * dy,
-        -sin * dx + cos * dy,
-        wrap_angle_rad(truth.theta_rad - o.theta_rad),
-    ]
+    [truth_in_map.x_m, truth_in_map.y_m, truth_in_map.theta_rad]
 }
 
 /// The world position of `point_in_map`, a position in the map frame whose origin is
 /// `origin` (the truth at the first scan; `None`: the map frame is the world frame).
 pub fn world_from_map(origin: Option<RobotState>, point_in_map: [f64; 2]) -> [f64; 2] {
-    let Some(o) = origin else {
-        return point_in_map;
-    };
-    let (sin, cos) = o.theta_rad.sin_cos();
-    let [x, y] = point_in_map;
-    [o.x_m + cos * x - sin * y, o.y_m + sin * x + cos * y]
+    origin.map_or(point_in_map, |o| {
+        Pose2::new(o.x_m, o.y_m, o.theta_rad).transform_point(point_in_map)
+    })
 }
 
 impl RunSummary {

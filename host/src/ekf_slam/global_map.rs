@@ -48,7 +48,8 @@ const SAME_POINT_CONFIDENCE: f64 = 0.999;
 pub struct JoinReport {
     /// Landmarks of the local map fused with global ones.
     pub fused: usize,
-    /// Landmarks of the local map added as new global landmarks.
+    /// Landmarks of the local map added as new global landmarks (some may then be merged
+    /// into an older record of their trunk, and count in `merged_records` too).
     pub added: usize,
     /// Fused landmarks first mapped at least two local maps earlier: the robot is back in a
     /// place it left before (a loop closed), not just overlapping the previous local map.
@@ -405,10 +406,8 @@ impl GlobalMap {
 
     /// Covariance of `l_a − l_b`.
     fn difference_covariance(&self, a: usize, b: usize) -> Matrix2<f64> {
-        let p = self.state.covariance();
-        let (oa, ob) = (self.state.landmark_offset(a), self.state.landmark_offset(b));
-        let block = |r: usize, c: usize| p.fixed_view::<2, 2>(r, c).into_owned();
-        block(oa, oa) + block(ob, ob) - block(oa, ob) - block(ob, oa)
+        let jacobian = self.difference_jacobian(a, b);
+        cross_covariance(self.state.covariance(), &jacobian, &jacobian)
     }
 
     /// Whether the pairs `(new, old)` of a recognised place may be fused: always when the
