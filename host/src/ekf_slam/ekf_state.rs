@@ -12,6 +12,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
 
+use super::jcbb::CovarianceEntries;
+use super::joined_state::JoinedState;
 use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Index of the heading in the state vector.
@@ -399,7 +401,6 @@ impl EkfState {
         if pairs.is_empty() {
             return Ok(());
         }
-        let m = 2 * pairs.len();
         // Row or column `i` of H is `e_duplicate − e_kept` on coordinate `i % 2` of pair `i / 2`.
         let h_entries = |i: usize| {
             let (duplicate, kept) = pairs[i / 2];
@@ -408,53 +409,16 @@ impl EkfState {
                 self.landmark_offset(kept) + i % 2,
             )
         };
-        let p = &self.covariance;
-        // S = H P Hᵀ + R and the innovation, from the covariance's entries.
-        let mut s = DMatrix::identity(m, m) * sigma_m.powi(2);
-        let mut innovation = DVector::zeros(m);
-        for row in 0..m {
-            let (ra, rb) = h_entries(row);
-            innovation[row] = self.mean[rb] - self.mean[ra];
-            for col in 0..m {
-                let (ca, cb) = h_entries(col);
-                s[(row, col)] += (p[(ra, ca)] - p[(ra, cb)]) - (p[(rb, ca)] - p[(rb, cb)]);
-            }
-        }
-        s = (&s + s.transpose()) * 0.5;
-        let cholesky = s
-            .cholesky()
-            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
-        let l = cholesky.l();
-
         let duplicates: Vec<usize> = pairs.iter().map(|&(duplicate, _)| duplicate).collect();
         let keep = self.entries_without(&duplicates);
-        // W = P Hᵀ L⁻ᵀ over the kept rows (kept × m), in one buffer: P Hᵀ first, then the
-        // triangular solve `W Lᵀ = P Hᵀ` column by column. Only the kept rows are ever
-        // formed, so the update's working memory is two kept × m blocks (W and Wᵀ).
-        let rows = keep.len();
-        let mut w = DMatrix::zeros(rows, m);
-        for col in 0..m {
-            let (a, b) = h_entries(col);
-            for (to, &from) in keep.iter().enumerate() {
-                w[(to, col)] = p[(from, a)] - p[(from, b)];
-            }
-        }
-        let data = w.as_mut_slice();
-        for col in 0..m {
-            let (solved, rest) = data.split_at_mut(col * rows);
-            let target = &mut rest[..rows];
-            for k in 0..col {
-                let factor = l[(col, k)];
-                for (t, &x) in target.iter_mut().zip(&solved[k * rows..(k + 1) * rows]) {
-                    *t -= factor * x;
-                }
-            }
-            let diagonal = l[(col, col)];
-            target.iter_mut().for_each(|t| *t /= diagonal);
-        }
-        let whitened_innovation = l
-            .solve_lower_triangular(&innovation)
-            .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+        let (w, whitened_innovation) = fusion_factors(
+            &self.covariance,
+            |i| self.mean[i],
+            h_entries,
+            2 * pairs.len(),
+            &keep,
+            sigma_m,
+        )?;
         let mut mean = self.mean.select_rows(keep.iter());
         mean.gemv(1.0, &w, &whitened_innovation, 1.0);
         mean[THETA] = wrap_angle_rad(mean[THETA]);
@@ -468,6 +432,84 @@ impl EkfState {
         covariance.gemm(-1.0, &w, &w.transpose(), 1.0);
         self.mean = mean;
         self.covariance = covariance;
+        debug_assert_symmetric!(self.covariance);
+        Ok(())
+    }
+
+    /// What [`EkfState::replace_pose_and_append`] followed by
+    /// [`EkfState::merge_landmarks`] of the pairs `(new landmark, landmark)` would give (the
+    /// first an index among the landmarks of `new`, the second one of this state's), without
+    /// ever holding the new landmarks that are fused away: the pairs are read from the
+    /// joined state in place ([`JoinedState`]), and the covariance grows only by the entries
+    /// that stay. A map join's memory then peaks at the map it keeps, not at the map plus
+    /// every landmark of the local map.
+    ///
+    /// # Errors
+    /// [`EkfError::CovarianceNotPositiveDefinite`] when the pairs' joint innovation covariance
+    /// is not positive definite; the state is then unchanged (nothing appended).
+    pub(crate) fn replace_pose_append_and_fuse(
+        &mut self,
+        new: &DVector<f64>,
+        cross: &DMatrix<f64>,
+        own: &DMatrix<f64>,
+        pairs: &[(usize, usize)],
+        sigma_m: f64,
+    ) -> Result<(), EkfError> {
+        if pairs.is_empty() {
+            self.replace_pose_and_append(new, cross, own);
+            return Ok(());
+        }
+        let n = self.dim();
+        let new_landmarks = (new.len() - 3) / 2;
+        let mut fused = vec![false; new_landmarks];
+        for &(duplicate, _) in pairs {
+            fused[duplicate] = true;
+        }
+        // The new entries that stay: the pose, then the landmarks not fused away.
+        let new_kept: Vec<usize> = (0..3)
+            .chain(
+                (0..new_landmarks)
+                    .filter(|&j| !fused[j])
+                    .flat_map(|j| [3 + 2 * j, 4 + 2 * j]),
+            )
+            .collect();
+        let (mean, w) = {
+            let joined = JoinedState::new(self, new, cross, own);
+            // New landmark `j` is entry `n + 2 j` of the joined state.
+            let h_entries = |i: usize| {
+                let (duplicate, kept) = pairs[i / 2];
+                (
+                    n + 2 * duplicate + i % 2,
+                    self.landmark_offset(kept) + i % 2,
+                )
+            };
+            let keep: Vec<usize> = (0..n)
+                .chain(new_kept[3..].iter().map(|&i| n + i - 3))
+                .collect();
+            let (w, whitened_innovation) = fusion_factors(
+                &joined,
+                |i| joined.mean_entry(i),
+                h_entries,
+                2 * pairs.len(),
+                &keep,
+                sigma_m,
+            )?;
+            let mut mean =
+                DVector::from_iterator(keep.len(), keep.iter().map(|&i| joined.mean_entry(i)));
+            mean.gemv(1.0, &w, &whitened_innovation, 1.0);
+            mean[THETA] = wrap_angle_rad(mean[THETA]);
+            (mean, w)
+        };
+        self.replace_pose_and_append(
+            &new.select_rows(new_kept.iter()),
+            &cross.select_rows(new_kept.iter()),
+            &own.select_rows(new_kept.iter())
+                .select_columns(new_kept.iter()),
+        );
+        debug_assert_eq!(self.dim(), mean.len());
+        self.mean = mean;
+        // As in `merge_landmarks`: the blocked kernel, and an exactly symmetric result.
+        self.covariance.gemm(-1.0, &w, &w.transpose(), 1.0);
         debug_assert_symmetric!(self.covariance);
         Ok(())
     }
@@ -571,6 +613,67 @@ impl EkfState {
         debug_assert_symmetric!(self.covariance);
         Ok(())
     }
+}
+
+/// The factors of fusing `m` measurements `x_a − x_b = 0` (noise `sigma_m` per row, row `i`
+/// of `H` being `e_a − e_b` for `(a, b) = h_entries(i)`) into a state with covariance `p`
+/// and mean `mean`: `W = P Hᵀ L⁻ᵀ` over the rows `keep` and the whitened innovation
+/// `L⁻¹ ν`, where `L Lᵀ = S = H P Hᵀ + R`. The update is then `x⁺ = x + W L⁻¹ ν` and
+/// `P⁺ = P − W Wᵀ` over the kept entries.
+///
+/// `W` is formed in one buffer, `P Hᵀ` first and then the triangular solve `W Lᵀ = P Hᵀ`
+/// column by column, and only for the kept rows, so an update's working memory is two
+/// kept × `m` blocks (`W` and `Wᵀ`).
+fn fusion_factors(
+    p: &(impl CovarianceEntries + ?Sized),
+    mean: impl Fn(usize) -> f64,
+    h_entries: impl Fn(usize) -> (usize, usize),
+    m: usize,
+    keep: &[usize],
+    sigma_m: f64,
+) -> Result<(DMatrix<f64>, DVector<f64>), EkfError> {
+    // S = H P Hᵀ + R and the innovation, from the covariance's entries.
+    let mut s = DMatrix::identity(m, m) * sigma_m.powi(2);
+    let mut innovation = DVector::zeros(m);
+    for row in 0..m {
+        let (ra, rb) = h_entries(row);
+        innovation[row] = mean(rb) - mean(ra);
+        for col in 0..m {
+            let (ca, cb) = h_entries(col);
+            s[(row, col)] +=
+                (p.entry(ra, ca) - p.entry(ra, cb)) - (p.entry(rb, ca) - p.entry(rb, cb));
+        }
+    }
+    s = (&s + s.transpose()) * 0.5;
+    let cholesky = s
+        .cholesky()
+        .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+    let l = cholesky.l();
+    let rows = keep.len();
+    let mut w = DMatrix::zeros(rows, m);
+    for col in 0..m {
+        let (a, b) = h_entries(col);
+        for (to, &from) in keep.iter().enumerate() {
+            w[(to, col)] = p.entry(from, a) - p.entry(from, b);
+        }
+    }
+    let data = w.as_mut_slice();
+    for col in 0..m {
+        let (solved, rest) = data.split_at_mut(col * rows);
+        let target = &mut rest[..rows];
+        for k in 0..col {
+            let factor = l[(col, k)];
+            for (t, &x) in target.iter_mut().zip(&solved[k * rows..(k + 1) * rows]) {
+                *t -= factor * x;
+            }
+        }
+        let diagonal = l[(col, col)];
+        target.iter_mut().for_each(|t| *t /= diagonal);
+    }
+    let whitened_innovation = l
+        .solve_lower_triangular(&innovation)
+        .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
+    Ok((w, whitened_innovation))
 }
 
 /// The rows and columns `keep` (increasing) of the square `matrix`, compacted in its own
@@ -781,6 +884,41 @@ mod tests {
         assert_eq!(p[(1, 4)], cross[(1, 4)]);
         assert_eq!(p[(n + 1, 3)], cross[(4, 3)]);
         assert_eq!(p[(n + 1, n + 1)], 2.0);
+    }
+
+    #[test]
+    fn joining_with_fusion_gives_the_append_then_the_merge_to_the_bit() {
+        // Four old landmarks; a new pose and three new landmarks, the first and the third
+        // fused into old landmarks 2 and 0.
+        let state = correlated_state();
+        let n = state.dim();
+        let k = 9;
+        let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
+        let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
+        let cross = DMatrix::from_fn(k, n, |r, c| 0.01 * ((r * 3 + c) % 5) as f64);
+        let new = DVector::from_fn(k, |r, _| 1.0 + 0.3 * r as f64);
+        let sigma_m = 1e-3;
+        let mut reference = state.clone();
+        reference.replace_pose_and_append(&new, &cross, &own);
+        let old = state.landmark_count();
+        reference
+            .merge_landmarks(&[(old, 2), (old + 2, 0)], sigma_m)
+            .expect("merge");
+        let mut joined = state.clone();
+        joined
+            .replace_pose_append_and_fuse(&new, &cross, &own, &[(0, 2), (2, 0)], sigma_m)
+            .expect("join");
+        assert_eq!(joined.landmark_count(), old + 1);
+        assert_eq!(joined.mean(), reference.mean());
+        assert_eq!(joined.covariance(), reference.covariance());
+        // Without pairs it is the append alone.
+        let mut appended = state.clone();
+        appended
+            .replace_pose_append_and_fuse(&new, &cross, &own, &[], sigma_m)
+            .expect("append");
+        let mut plain = state;
+        plain.replace_pose_and_append(&new, &cross, &own);
+        assert_eq!(appended, plain);
     }
 
     #[test]

@@ -8,7 +8,9 @@
 //! `P⁺ = J_G P_G J_Gᵀ + J_L P_L J_Lᵀ` (the two maps are independent). Its landmarks are then
 //! paired with the global ones by the individual gate and JCBB on `l_new − l_old`, each pair
 //! is imposed as the measurement `l_new − l_old = 0` and the duplicate is removed. Only the
-//! pairing update touches the whole covariance (O(N² p) for `p` pairs).
+//! pairing update touches the whole covariance (O(N² p) for `p` pairs). The joined state is
+//! read in place while pairing ([`JoinedState`]) and the duplicates are never formed, so the
+//! covariance grows only by the landmarks that stay.
 //!
 //! A local map that measured its base in the map frame (GPS) carries its own estimate `b_L`
 //! of the base, started from the global one and independent of the rest given the base.
@@ -22,7 +24,10 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::{compose_pose, transform_point};
-use super::jcbb::{JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb};
+use super::jcbb::{
+    CovarianceEntries, JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb,
+};
+use super::joined_state::JoinedState;
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
@@ -264,41 +269,72 @@ impl GlobalMap {
                     + &d_local * local_state.covariance() * d_local.transpose(),
             ),
         };
-        // The new robot takes the old base's place: [r', M, L'].
-        self.state.replace_pose_and_append(&mean, &cross, &own);
+        // The new robot takes the old base's place, [r', M, L'], and the local landmarks
+        // found in the map are fused into it at once: pairing reads the joined state in
+        // place, so the covariance never holds the landmarks that are fused away.
         let old_count = self.info.len();
         let joined_map = self.bases_in_map.len() - 1;
-        self.info.extend(local_info);
-        self.origin_map
-            .extend(std::iter::repeat_n(joined_map, count));
-        let first_id = self.next_id;
-        self.next_id += count;
-        self.ids.extend(first_id..first_id + count);
-        self.last_joined_ids.clear();
-        self.last_joined_ids.extend(first_id..first_id + count);
-        self.bases_in_map.push(self.state.pose());
-
-        let mut pairs = self.pair(old_count, options);
-        // Pairings a place recognised by the history memory adds, for landmarks the gate in
-        // the drifted global frame could not pair.
-        let place: Vec<(usize, usize)> = recognised
-            .iter()
-            .map(|&(local, old)| (old_count + local, old))
-            .filter(|&(new, old)| new < self.info.len() && old < old_count)
-            .collect();
-        let place_rejected = !place.is_empty() && !self.place_is_credible(&place, options);
-        if !place_rejected {
-            for (new, old) in place {
-                if pairs.iter().all(|&(n, o)| n != new && o != old) {
-                    pairs.push((new, old));
+        let (pairs, place_rejected) = {
+            let joined = JoinedState::new(&self.state, &mean, &cross, &own);
+            let mut pairs = self.pair(&joined, &local_info, options);
+            // Pairings a place recognised by the history memory adds, for landmarks the gate
+            // in the drifted global frame could not pair.
+            let place: Vec<(usize, usize)> = recognised
+                .iter()
+                .map(|&(local, old)| (old_count + local, old))
+                .filter(|&(new, old)| new < old_count + count && old < old_count)
+                .collect();
+            let place_rejected = !place.is_empty() && !place_is_credible(&joined, &place, options);
+            if !place_rejected {
+                for (new, old) in place {
+                    if pairs.iter().all(|&(n, o)| n != new && o != old) {
+                        pairs.push((new, old));
+                    }
                 }
             }
-        }
+            (pairs, place_rejected)
+        };
         let revisited = pairs
             .iter()
             .filter(|&&(_, old)| self.origin_map[old] + 1 < joined_map)
             .count();
-        self.fuse(&pairs)?;
+        // `(local landmark, global landmark)`.
+        let fused: Vec<(usize, usize)> = pairs
+            .iter()
+            .map(|&(new, old)| (new - old_count, old))
+            .collect();
+        let fusion =
+            self.state
+                .replace_pose_append_and_fuse(&mean, &cross, &own, &fused, FUSION_SIGMA_M);
+        let mut fused_into = vec![None; count];
+        match fusion {
+            Ok(()) => fused
+                .iter()
+                .for_each(|&(local, old)| fused_into[local] = Some(old)),
+            // The local map is joined without fusion.
+            Err(_) => self.state.replace_pose_and_append(&mean, &cross, &own),
+        }
+        // Every local landmark is numbered, in order; a fused one stands as its global
+        // landmark from the start.
+        let first_id = self.next_id;
+        self.next_id += count;
+        self.last_joined_ids.clear();
+        for (i, (record, into)) in local_info.into_iter().zip(fused_into).enumerate() {
+            match into {
+                Some(old) => {
+                    self.info[old].merge(&record);
+                    self.last_joined_ids.push(self.ids[old]);
+                }
+                None => {
+                    self.info.push(record);
+                    self.origin_map.push(joined_map);
+                    self.ids.push(first_id + i);
+                    self.last_joined_ids.push(first_id + i);
+                }
+            }
+        }
+        self.bases_in_map.push(robot);
+        fusion?;
         // A merge that fails leaves the map as it was (the fusion update changes nothing when
         // it fails), and the join stands.
         self.last_merged_ids.clear();
@@ -406,70 +442,30 @@ impl GlobalMap {
 
     /// Covariance of `l_a − l_b`.
     fn difference_covariance(&self, a: usize, b: usize) -> Matrix2<f64> {
-        let jacobian = self.difference_jacobian(a, b);
+        let jacobian =
+            difference_jacobian(self.state.landmark_offset(a), self.state.landmark_offset(b));
         cross_covariance(self.state.covariance(), &jacobian, &jacobian)
     }
 
-    /// Whether the pairs `(new, old)` of a recognised place may be fused: always when the
-    /// map's covariance finds them jointly plausible (their stacked innovation within the
-    /// [`PLACE_CONFIDENCE`] chi-square quantile), otherwise only with at least
-    /// `options.min_pairs_against_the_map` pairs. A revisit after a long drift moves the map
-    /// further than its (over-confident) covariance allows and is backed by many trees; a
-    /// look-alike place found by a well-localised robot contradicts the map by orders of
-    /// magnitude more and is backed by few.
-    fn place_is_credible(&self, pairs: &[(usize, usize)], options: &AssociationOptions) -> bool {
-        if pairs.len() >= options.min_pairs_against_the_map {
-            return true;
-        }
-        let m = 2 * pairs.len();
-        let covariance = self.state.covariance();
-        let jacobians: Vec<Vec<JacobianBlock>> = pairs
-            .iter()
-            .map(|&(new, old)| self.difference_jacobian(new, old))
-            .collect();
-        // S = H P Hᵀ + R and ν = l_old − l_new, stacked over the pairs.
-        let mut s = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
-        let mut innovation = DVector::zeros(m);
-        for (a, (&(new, old), jacobian_a)) in pairs.iter().zip(&jacobians).enumerate() {
-            let (l_new, l_old) = (self.state.landmark(new), self.state.landmark(old));
-            innovation[2 * a] = l_old[0] - l_new[0];
-            innovation[2 * a + 1] = l_old[1] - l_new[1];
-            for (b, jacobian_b) in jacobians.iter().enumerate() {
-                let mut block = s.fixed_view_mut::<2, 2>(2 * a, 2 * b);
-                block += cross_covariance(covariance, jacobian_a, jacobian_b);
-            }
-        }
-        s.cholesky().is_some_and(|cholesky| {
-            innovation.dot(&cholesky.solve(&innovation)) <= chi_square_quantile(m, PLACE_CONFIDENCE)
-        })
-    }
-
-    /// The Jacobian of `l_new − l_old` (the difference a fusion drives to zero).
-    fn difference_jacobian(&self, new: usize, old: usize) -> Vec<JacobianBlock> {
-        vec![
-            JacobianBlock {
-                column: self.state.landmark_offset(new),
-                matrix: DMatrix::identity(2, 2),
-            },
-            JacobianBlock {
-                column: self.state.landmark_offset(old),
-                matrix: -DMatrix::identity(2, 2),
-            },
-        ]
-    }
-
-    /// Pairs the landmarks from `first_new` on with the older ones: `(new, old)` indices.
-    fn pair(&self, first_new: usize, options: &AssociationOptions) -> Vec<(usize, usize)> {
+    /// Pairs the new landmarks of `joined` (records `new_info`) with the map's: `(new, old)`
+    /// indices in the joined state.
+    fn pair(
+        &self,
+        joined: &JoinedState<'_>,
+        new_info: &[LandmarkInfo],
+        options: &AssociationOptions,
+    ) -> Vec<(usize, usize)> {
         let gate = chi_square_quantile(2, options.individual_confidence);
-        let covariance = self.state.covariance();
+        let covariance = joined;
         let noise = Matrix2::identity() * FUSION_SIGMA_M.powi(2);
-        let total = self.info.len();
+        let first_new = self.info.len();
+        let total = joined.landmark_count();
         let mut candidates = Vec::with_capacity(total - first_new);
         for new in first_new..total {
-            let position = self.state.landmark(new);
+            let position = joined.landmark(new);
             let mut list = Vec::new();
             for old in 0..first_new {
-                let other = self.state.landmark(old);
+                let other = joined.landmark(old);
                 let innovation =
                     nalgebra::Vector2::new(other[0] - position[0], other[1] - position[1]);
                 // Cheap rejection: no two records of a trunk lie 20 m apart after a join.
@@ -478,14 +474,11 @@ impl GlobalMap {
                 }
                 // Exact cheap rejection: νᵀ S⁻¹ ν ≥ |ν|² / λ_max(S) ≥ |ν|² / trace(S), and the
                 // trace takes six entries of the covariance where S takes sixteen.
-                let (cn, co) = (
-                    self.state.landmark_offset(new),
-                    self.state.landmark_offset(old),
-                );
+                let (cn, co) = (joined.landmark_offset(new), joined.landmark_offset(old));
                 let trace = (0..2)
                     .map(|d| {
-                        covariance[(cn + d, cn + d)] + covariance[(co + d, co + d)]
-                            - 2.0 * covariance[(cn + d, co + d)]
+                        covariance.entry(cn + d, cn + d) + covariance.entry(co + d, co + d)
+                            - 2.0 * covariance.entry(cn + d, co + d)
                     })
                     .sum::<f64>()
                     + noise.trace();
@@ -493,13 +486,13 @@ impl GlobalMap {
                     continue;
                 }
                 if !self.info[old].diameter_compatible(
-                    self.info[new].diameter_m,
+                    new_info[new - first_new].diameter_m,
                     options.diameter_tolerance_m,
                     options.diameter_tolerance_fraction,
                 ) {
                     continue;
                 }
-                let jacobian = self.difference_jacobian(new, old);
+                let jacobian = difference_jacobian(cn, co);
                 let candidate =
                     PairingCandidate::new(old, innovation, jacobian, covariance, &noise);
                 if let Some(candidate) = candidate.filter(|c| c.distance2 < gate) {
@@ -570,6 +563,60 @@ impl GlobalMap {
             .map(|i| self.ids[i])
             .collect();
     }
+}
+
+/// Whether the pairs `(new, old)` of a recognised place may be fused: always when the joined
+/// state's covariance finds them jointly plausible (their stacked innovation within the
+/// [`PLACE_CONFIDENCE`] chi-square quantile), otherwise only with at least
+/// `options.min_pairs_against_the_map` pairs. A revisit after a long drift moves the map
+/// further than its (over-confident) covariance allows and is backed by many trees; a
+/// look-alike place found by a well-localised robot contradicts the map by orders of
+/// magnitude more and is backed by few.
+fn place_is_credible(
+    joined: &JoinedState<'_>,
+    pairs: &[(usize, usize)],
+    options: &AssociationOptions,
+) -> bool {
+    if pairs.len() >= options.min_pairs_against_the_map {
+        return true;
+    }
+    let m = 2 * pairs.len();
+    let jacobians: Vec<Vec<JacobianBlock>> = pairs
+        .iter()
+        .map(|&(new, old)| {
+            difference_jacobian(joined.landmark_offset(new), joined.landmark_offset(old))
+        })
+        .collect();
+    // S = H P Hᵀ + R and ν = l_old − l_new, stacked over the pairs.
+    let mut s = DMatrix::identity(m, m) * FUSION_SIGMA_M.powi(2);
+    let mut innovation = DVector::zeros(m);
+    for (a, (&(new, old), jacobian_a)) in pairs.iter().zip(&jacobians).enumerate() {
+        let (l_new, l_old) = (joined.landmark(new), joined.landmark(old));
+        innovation[2 * a] = l_old[0] - l_new[0];
+        innovation[2 * a + 1] = l_old[1] - l_new[1];
+        for (b, jacobian_b) in jacobians.iter().enumerate() {
+            let mut block = s.fixed_view_mut::<2, 2>(2 * a, 2 * b);
+            block += cross_covariance(joined, jacobian_a, jacobian_b);
+        }
+    }
+    s.cholesky().is_some_and(|cholesky| {
+        innovation.dot(&cholesky.solve(&innovation)) <= chi_square_quantile(m, PLACE_CONFIDENCE)
+    })
+}
+
+/// The Jacobian of `l_a − l_b` for landmarks whose entries start at `offset_a` and
+/// `offset_b` (the difference a fusion drives to zero).
+fn difference_jacobian(offset_a: usize, offset_b: usize) -> Vec<JacobianBlock> {
+    vec![
+        JacobianBlock {
+            column: offset_a,
+            matrix: DMatrix::identity(2, 2),
+        },
+        JacobianBlock {
+            column: offset_b,
+            matrix: -DMatrix::identity(2, 2),
+        },
+    ]
 }
 
 #[cfg(test)]

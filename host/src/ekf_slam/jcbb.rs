@@ -19,6 +19,19 @@ use std::collections::HashMap;
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
+/// Read access to the entries of a state covariance: the matrix itself, or a view of one not
+/// yet formed (the state a map join forms, [`crate::ekf_slam::joined_state`]).
+pub trait CovarianceEntries {
+    /// Entry `(row, column)`.
+    fn entry(&self, row: usize, column: usize) -> f64;
+}
+
+impl CovarianceEntries for DMatrix<f64> {
+    fn entry(&self, row: usize, column: usize) -> f64 {
+        self[(row, column)]
+    }
+}
+
 /// One block of a pairing's Jacobian: `matrix` (2 × w) multiplies state entries
 /// `column .. column + w`.
 #[derive(Debug, Clone, PartialEq)]
@@ -68,7 +81,7 @@ impl PairingCandidate {
         target: usize,
         innovation: Vector2<f64>,
         jacobian: Vec<JacobianBlock>,
-        covariance: &DMatrix<f64>,
+        covariance: &(impl CovarianceEntries + ?Sized),
         noise: &Matrix2<f64>,
     ) -> Option<PairingCandidate> {
         let s = cross_covariance(covariance, &jacobian, &jacobian) + noise;
@@ -84,7 +97,7 @@ impl PairingCandidate {
 
 /// `H_a P H_bᵀ` for two sparse Jacobians.
 pub fn cross_covariance(
-    covariance: &DMatrix<f64>,
+    covariance: &(impl CovarianceEntries + ?Sized),
     a: &[JacobianBlock],
     b: &[JacobianBlock],
 ) -> Matrix2<f64> {
@@ -93,7 +106,7 @@ pub fn cross_covariance(
         for block_b in b {
             for r in 0..block_a.matrix.ncols() {
                 for c in 0..block_b.matrix.ncols() {
-                    let p = covariance[(block_a.column + r, block_b.column + c)];
+                    let p = covariance.entry(block_a.column + r, block_b.column + c);
                     if p == 0.0 {
                         continue;
                     }
@@ -142,7 +155,7 @@ fn compute_chi_square_quantile(dof: usize, confidence: f64) -> f64 {
 pub fn jcbb(
     candidates: &[Vec<PairingCandidate>],
     noise: &[Matrix2<f64>],
-    covariance: &DMatrix<f64>,
+    covariance: &(impl CovarianceEntries + ?Sized),
     options: &JcbbOptions,
 ) -> Vec<Option<usize>> {
     let m = candidates.len();

@@ -30,6 +30,7 @@ pub mod global_map;
 pub mod gps_anchor;
 pub mod history_memory;
 pub mod jcbb;
+pub mod joined_state;
 pub mod landmark_info;
 mod landmark_slam;
 pub mod local_map;
