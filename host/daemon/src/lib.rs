@@ -14,6 +14,7 @@ pub mod camera_v4l2;
 pub mod config;
 pub mod foxglove_live;
 pub mod goal;
+pub mod memory_policy;
 pub mod outputs;
 pub mod publish;
 pub mod replay;

@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
 
 use super::jcbb::CovarianceEntries;
-use super::joined_state::JoinedState;
+use super::joined_state::{CrossCovariance, JoinedState};
 use crate::geometry::{Pose2, wrap_angle_rad};
 
 /// Index of the heading in the state vector.
@@ -233,14 +233,14 @@ impl EkfState {
     pub(crate) fn replace_pose_and_append(
         &mut self,
         new: &DVector<f64>,
-        cross: &DMatrix<f64>,
+        cross: &CrossCovariance,
         own: &DMatrix<f64>,
     ) {
         debug_assert_eq!(self.robot_dim, 3);
         let n = self.dim();
         let k = new.len();
         debug_assert!(k >= 3 && (k - 3).is_multiple_of(2));
-        debug_assert_eq!(cross.shape(), (k, n));
+        debug_assert_eq!((cross.nrows(), cross.ncols()), (k, n));
         debug_assert_eq!(own.shape(), (k, k));
         let (landmarks, appended) = (n - 3, k - 3);
         let dim = n + appended;
@@ -259,22 +259,15 @@ impl EkfState {
         // By value: `resize_mut` would clone the matrix first.
         let mut covariance = DMatrix::from_vec(n, n, data).resize(dim, dim, 0.0);
         // The new pose and the new landmarks with the old landmarks.
-        let cross_pose = cross.view((0, 3), (3, landmarks));
-        let cross_appended = cross.view((3, 3), (appended, landmarks));
-        covariance
-            .view_mut((0, 3), (3, landmarks))
-            .copy_from(&cross_pose);
-        covariance
-            .view_mut((3, 0), (landmarks, 3))
-            .copy_from(&cross_pose.transpose());
-        covariance
-            .view_mut((n, 3), (appended, landmarks))
-            .copy_from(&cross_appended);
-        covariance
-            .view_mut((3, n), (landmarks, appended))
-            .copy_from(&cross_appended.transpose());
-        // The new entries among themselves.
         let new_rows = |index: usize| if index < 3 { index } else { n + index - 3 };
+        for c in 3..n {
+            for r in 0..k {
+                let value = cross.entry(r, c);
+                covariance[(new_rows(r), c)] = value;
+                covariance[(c, new_rows(r))] = value;
+            }
+        }
+        // The new entries among themselves.
         for c in 0..k {
             for r in 0..k {
                 covariance[(new_rows(r), new_rows(c))] = own[(r, c)];
@@ -426,10 +419,7 @@ impl EkfState {
             std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
             &keep,
         );
-        // `gemm` with an explicit transpose uses its blocked kernel (`gemm_tr` would take
-        // dot products column by column). Entries (i, j) and (j, i) of `W Wᵀ` sum the same
-        // products in the same order, so the result stays exactly symmetric.
-        covariance.gemm(-1.0, &w, &w.transpose(), 1.0);
+        subtract_outer_product(&mut covariance, &w);
         self.mean = mean;
         self.covariance = covariance;
         debug_assert_symmetric!(self.covariance);
@@ -450,7 +440,7 @@ impl EkfState {
     pub(crate) fn replace_pose_append_and_fuse(
         &mut self,
         new: &DVector<f64>,
-        cross: &DMatrix<f64>,
+        cross: &CrossCovariance,
         own: &DMatrix<f64>,
         pairs: &[(usize, usize)],
         sigma_m: f64,
@@ -502,14 +492,13 @@ impl EkfState {
         };
         self.replace_pose_and_append(
             &new.select_rows(new_kept.iter()),
-            &cross.select_rows(new_kept.iter()),
+            &cross.select_rows(&new_kept),
             &own.select_rows(new_kept.iter())
                 .select_columns(new_kept.iter()),
         );
         debug_assert_eq!(self.dim(), mean.len());
         self.mean = mean;
-        // As in `merge_landmarks`: the blocked kernel, and an exactly symmetric result.
-        self.covariance.gemm(-1.0, &w, &w.transpose(), 1.0);
+        subtract_outer_product(&mut self.covariance, &w);
         debug_assert_symmetric!(self.covariance);
         Ok(())
     }
@@ -674,6 +663,29 @@ fn fusion_factors(
         .solve_lower_triangular(&innovation)
         .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
     Ok((w, whitened_innovation))
+}
+
+/// `P −= W Wᵀ` for a square `p` and a `W` of as many rows, a band of columns at a time, so
+/// that only a band of `Wᵀ` is formed at once (the whole of it is as large as `W`, and a
+/// join's memory peaks while it is held). `gemm` with an explicit transpose uses its blocked
+/// kernel (`gemm_tr` would take dot products column by column); every entry sums its `k`
+/// products in the same order whatever the bands, so entries (i, j) and (j, i) stay equal
+/// to the bit. The bands are near-equal and at least `MIN_BAND` wide, so none is narrow
+/// enough for nalgebra to leave the blocked kernel.
+fn subtract_outer_product(p: &mut DMatrix<f64>, w: &DMatrix<f64>) {
+    const MAX_BAND: usize = 128;
+    const MIN_BAND: usize = 64;
+    let n = p.ncols();
+    debug_assert_eq!(w.nrows(), n);
+    let bands = n.div_ceil(MAX_BAND).min((n / MIN_BAND).max(1));
+    let mut first = 0;
+    for band in 0..bands {
+        let width = (n - first) / (bands - band);
+        let band_of_w_t = w.rows(first, width).transpose();
+        p.columns_mut(first, width).gemm(-1.0, w, &band_of_w_t, 1.0);
+        first += width;
+    }
+    debug_assert_eq!(first, n);
 }
 
 /// The rows and columns `keep` (increasing) of the square `matrix`, compacted in its own
@@ -862,7 +874,10 @@ mod tests {
         let before = state.clone();
         let n = before.dim();
         let new = DVector::from_vec(vec![10.0, 11.0, 0.2, 12.0, 13.0]);
-        let cross = DMatrix::from_fn(5, n, |r, c| 0.01 * (r + c) as f64);
+        let cross = CrossCovariance::new(
+            DMatrix::from_fn(5, 3, |r, c| 0.1 * (r + c) as f64),
+            DMatrix::from_fn(3, n, |r, c| 0.01 * (r + 2 * c) as f64),
+        );
         let own = DMatrix::from_fn(5, 5, |r, c| if r == c { 2.0 } else { 0.1 });
         state.replace_pose_and_append(&new, &cross, &own);
         assert_eq!(state.landmark_count(), 5);
@@ -881,9 +896,23 @@ mod tests {
         // old landmark from `cross`.
         assert_eq!(p[(5, 6)], before.covariance()[(5, 6)]);
         assert_eq!(p[(0, n)], own[(0, 3)]);
-        assert_eq!(p[(1, 4)], cross[(1, 4)]);
-        assert_eq!(p[(n + 1, 3)], cross[(4, 3)]);
+        assert_eq!(p[(1, 4)], cross.entry(1, 4));
+        assert_eq!(p[(4, 1)], cross.entry(1, 4));
+        assert_eq!(p[(n + 1, 3)], cross.entry(4, 3));
         assert_eq!(p[(n + 1, n + 1)], 2.0);
+    }
+
+    #[test]
+    fn the_outer_product_by_bands_is_the_whole_product_to_the_bit() {
+        for (n, m) in [(5, 4), (70, 6), (130, 20), (301, 34)] {
+            let w = DMatrix::from_fn(n, m, |r, c| ((r * 31 + c * 17) % 23) as f64 / 7.0 - 1.3);
+            let p = DMatrix::from_fn(n, n, |r, c| ((r + c) % 13) as f64 * 0.1);
+            let mut whole = p.clone();
+            whole.gemm(-1.0, &w, &w.transpose(), 1.0);
+            let mut banded = p;
+            subtract_outer_product(&mut banded, &w);
+            assert_eq!(banded, whole, "{n} × {m}");
+        }
     }
 
     #[test]
@@ -895,7 +924,10 @@ mod tests {
         let k = 9;
         let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
         let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
-        let cross = DMatrix::from_fn(k, n, |r, c| 0.01 * ((r * 3 + c) % 5) as f64);
+        let cross = CrossCovariance::new(
+            DMatrix::from_fn(k, 3, |r, c| 0.1 * ((r * 3 + c) % 5) as f64),
+            DMatrix::from_fn(3, n, |r, c| 0.02 * ((r + 2 * c) % 7) as f64),
+        );
         let new = DVector::from_fn(k, |r, _| 1.0 + 0.3 * r as f64);
         let sigma_m = 1e-3;
         let mut reference = state.clone();

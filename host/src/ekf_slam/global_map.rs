@@ -27,7 +27,7 @@ use super::frames::{compose_pose, transform_point};
 use super::jcbb::{
     CovarianceEntries, JacobianBlock, PairingCandidate, chi_square_quantile, cross_covariance, jcbb,
 };
-use super::joined_state::JoinedState;
+use super::joined_state::{CrossCovariance, JoinedState};
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
@@ -261,13 +261,13 @@ impl GlobalMap {
                     Some(cholesky) => cholesky.solve(&local_with_base.transpose()).transpose(),
                     None => d_base.clone(),
                 };
-                (through_base * &p_base_all, own)
+                (CrossCovariance::new(through_base, p_base_all), own)
             }
-            None => (
-                &d_base * &p_base_all,
-                &d_base * p_base * d_base.transpose()
-                    + &d_local * local_state.covariance() * d_local.transpose(),
-            ),
+            None => {
+                let own = &d_base * p_base * d_base.transpose()
+                    + &d_local * local_state.covariance() * d_local.transpose();
+                (CrossCovariance::new(d_base, p_base_all), own)
+            }
         };
         // The new robot takes the old base's place, [r', M, L'], and the local landmarks
         // found in the map are fused into it at once: pairing reads the joined state in

@@ -105,6 +105,7 @@ fn parse_laser_config(s: &str) -> Result<ConfigureLaserCmd, String> {
 }
 
 fn main() -> ExitCode {
+    robot_host::memory_policy::settle_allocator();
     let cli = Cli::parse();
     tracing_subscriber::fmt()
         .with_env_filter(
