@@ -7,8 +7,8 @@
 //! on the global map's covariance, a block that grows with every join, lives in the heaps:
 //! each growth leaves the old block behind as free memory, and the heaps keep what the
 //! largest working sets needed. With the thresholds fixed, blocks of 512 KiB and more are
-//! mapped on their own (the covariance grows in place, by remapping, and is handed back
-//! whole when it shrinks), and a heap keeps at most 512 KiB free at its top.
+//! mapped on their own (the covariance grows in place, by remapping, and its block is
+//! handed back whole once it is freed), and a heap keeps at most 512 KiB free at its top.
 
 /// The threshold from which a block gets a mapping of its own, and the free memory a heap
 /// keeps at its top, bytes.

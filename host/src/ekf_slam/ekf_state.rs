@@ -611,8 +611,8 @@ impl EkfState {
 /// `P⁺ = P − W Wᵀ` over the kept entries.
 ///
 /// `W` is formed in one buffer, `P Hᵀ` first and then the triangular solve `W Lᵀ = P Hᵀ`
-/// column by column, and only for the kept rows, so an update's working memory is two
-/// kept × `m` blocks (`W` and `Wᵀ`).
+/// column by column, and only for the kept rows, so an update's working memory is `W` (kept ×
+/// `m`) and one band of `Wᵀ` ([`subtract_outer_product`]).
 fn fusion_factors(
     p: &(impl CovarianceEntries + ?Sized),
     mean: impl Fn(usize) -> f64,
@@ -920,8 +920,21 @@ mod tests {
         // Four old landmarks; a new pose and three new landmarks, the first and the third
         // fused into old landmarks 2 and 0.
         let state = correlated_state();
+        joined_and_merged_agree(state, 9, &[(0, 2), (2, 0)]);
+        // A map large enough for the blocked product and its bands: 80 landmarks, 12 new,
+        // 5 of them fused.
+        let n = 163;
+        let a = DMatrix::from_fn(n, n, |r, c| ((r * 7 + c * 3) % 11) as f64 * 0.01 - 0.05);
+        let covariance = &a * a.transpose() + DMatrix::identity(n, n) * 0.3;
+        let mean = DVector::from_fn(n, |r, _| r as f64 * 0.1 - 2.0);
+        let large = EkfState::from_parts(mean, covariance, 3);
+        joined_and_merged_agree(large, 27, &[(0, 70), (3, 5), (4, 41), (8, 0), (11, 79)]);
+    }
+
+    /// Joins `state` with `k` new entries (a pose, then landmarks) and fuses `pairs`, both
+    /// ways, and checks they agree to the bit.
+    fn joined_and_merged_agree(state: EkfState, k: usize, pairs: &[(usize, usize)]) {
         let n = state.dim();
-        let k = 9;
         let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
         let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
         let cross = CrossCovariance::new(
@@ -933,14 +946,13 @@ mod tests {
         let mut reference = state.clone();
         reference.replace_pose_and_append(&new, &cross, &own);
         let old = state.landmark_count();
-        reference
-            .merge_landmarks(&[(old, 2), (old + 2, 0)], sigma_m)
-            .expect("merge");
+        let merged: Vec<(usize, usize)> = pairs.iter().map(|&(new, o)| (old + new, o)).collect();
+        reference.merge_landmarks(&merged, sigma_m).expect("merge");
         let mut joined = state.clone();
         joined
-            .replace_pose_append_and_fuse(&new, &cross, &own, &[(0, 2), (2, 0)], sigma_m)
+            .replace_pose_append_and_fuse(&new, &cross, &own, pairs, sigma_m)
             .expect("join");
-        assert_eq!(joined.landmark_count(), old + 1);
+        assert_eq!(joined.landmark_count(), old + (k - 3) / 2 - pairs.len());
         assert_eq!(joined.mean(), reference.mean());
         assert_eq!(joined.covariance(), reference.covariance());
         // Without pairs it is the append alone.
