@@ -332,6 +332,44 @@ impl EkfState {
         symmetrise(&mut self.covariance);
     }
 
+    /// Re-expresses the whole state in another frame (`new_from_old`, rigid): the pose
+    /// (entries 0..3, the only robot entries) is composed and every landmark transformed.
+    /// The Jacobian is a rotation of each `(x, y)` pair, so `J P Jᵀ` is applied in place, a
+    /// pair of rows and a pair of columns at a time: O(n²) time and no memory beyond the
+    /// state's, where the product of dense `n × n` matrices costs O(n³) and three of them.
+    pub(crate) fn transform_rigid(&mut self, new_from_old: Pose2) {
+        debug_assert_eq!(self.robot_dim, 3);
+        let (pose, _, _) = super::frames::compose_pose(new_from_old, self.pose());
+        self.mean
+            .rows_mut(0, 3)
+            .copy_from_slice(&[pose.x_m, pose.y_m, pose.theta_rad]);
+        for i in 0..self.landmark_count() {
+            let (point, _, _) = super::frames::transform_point(new_from_old, self.landmark(i));
+            let o = self.landmark_offset(i);
+            self.mean.rows_mut(o, 2).copy_from_slice(&point);
+        }
+        let (sin, cos) = new_from_old.theta_rad.sin_cos();
+        let n = self.dim();
+        // The pose's position, then each landmark: the pairs the rotation acts on (the
+        // heading's entry is left as it is).
+        let pairs = std::iter::once(0).chain((0..self.landmark_count()).map(|i| 3 + 2 * i));
+        for o in pairs.clone() {
+            for c in 0..n {
+                let (x, y) = (self.covariance[(o, c)], self.covariance[(o + 1, c)]);
+                self.covariance[(o, c)] = cos * x - sin * y;
+                self.covariance[(o + 1, c)] = sin * x + cos * y;
+            }
+        }
+        for o in pairs {
+            for r in 0..n {
+                let (x, y) = (self.covariance[(r, o)], self.covariance[(r, o + 1)]);
+                self.covariance[(r, o)] = cos * x - sin * y;
+                self.covariance[(r, o + 1)] = sin * x + cos * y;
+            }
+        }
+        symmetrise(&mut self.covariance);
+    }
+
     /// Replaces the marginal of the pose (entries 0..3) by `pose` / `pose_covariance` and
     /// moves every other entry by its linear regression on the pose: the rest of the state is
     /// taken as unchanged given the pose. This is how information gathered about the pose
@@ -900,6 +938,38 @@ mod tests {
         assert_eq!(p[(4, 1)], cross.entry(1, 4));
         assert_eq!(p[(n + 1, 3)], cross.entry(4, 3));
         assert_eq!(p[(n + 1, n + 1)], 2.0);
+    }
+
+    #[test]
+    fn a_rigid_transform_in_place_is_the_dense_jacobian_product() {
+        let mut state = correlated_state();
+        let before = state.clone();
+        let new_from_old = Pose2 {
+            x_m: 3.0,
+            y_m: -2.0,
+            theta_rad: 2.4,
+        };
+        state.transform_rigid(new_from_old);
+        let n = before.dim();
+        let mut jacobian = DMatrix::zeros(n, n);
+        let (pose, _, d_pose) = super::super::frames::compose_pose(new_from_old, before.pose());
+        jacobian.view_mut((0, 0), (3, 3)).copy_from(&d_pose);
+        assert_eq!(state.pose(), pose);
+        for i in 0..before.landmark_count() {
+            let (point, _, d_point) =
+                super::super::frames::transform_point(new_from_old, before.landmark(i));
+            let o = before.landmark_offset(i);
+            jacobian.view_mut((o, o), (2, 2)).copy_from(&d_point);
+            assert_eq!(state.landmark(i), point);
+        }
+        let dense = &jacobian * before.covariance() * jacobian.transpose();
+        let scale = dense.amax();
+        assert!(
+            (state.covariance() - &dense).amax() <= 1e-14 * scale,
+            "{}",
+            state.covariance() - dense
+        );
+        assert_eq!(state.covariance(), &state.covariance().transpose());
     }
 
     #[test]

@@ -173,21 +173,7 @@ impl GlobalMap {
     /// Re-expresses the whole map in another frame: `new_from_old` maps the current map frame
     /// into the new one (for example `enu_from_map` once GPS has fixed the alignment).
     pub fn transform(&mut self, new_from_old: Pose2) {
-        let n = self.state.dim();
-        let mut mean = self.state.mean().clone();
-        let mut jacobian = DMatrix::zeros(n, n);
-        let (pose, _, d_pose) = compose_pose(new_from_old, self.state.pose());
-        mean.rows_mut(0, 3)
-            .copy_from_slice(&[pose.x_m, pose.y_m, pose.theta_rad]);
-        jacobian.view_mut((0, 0), (3, 3)).copy_from(&d_pose);
-        for i in 0..self.state.landmark_count() {
-            let (point, _, d_point) = transform_point(new_from_old, self.state.landmark(i));
-            let o = self.state.landmark_offset(i);
-            mean.rows_mut(o, 2).copy_from_slice(&point);
-            jacobian.view_mut((o, o), (2, 2)).copy_from(&d_point);
-        }
-        let covariance = &jacobian * self.state.covariance() * jacobian.transpose();
-        self.state = EkfState::from_parts(mean, covariance, 3);
+        self.state.transform_rigid(new_from_old);
         for base in &mut self.bases_in_map {
             *base = compose_pose(new_from_old, *base).0;
         }
