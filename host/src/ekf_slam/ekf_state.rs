@@ -77,8 +77,9 @@ impl EkfState {
         }
     }
 
-    /// A state with `robot_dim` robot entries followed by landmarks (a re-ordered or
-    /// re-expressed copy of another state).
+    /// A state with `robot_dim` robot entries followed by landmarks, for tests that build
+    /// one directly.
+    #[cfg(test)]
     pub(crate) fn from_parts(
         mean: DVector<f64>,
         covariance: DMatrix<f64>,
