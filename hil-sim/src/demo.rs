@@ -24,6 +24,7 @@ use host::camera::{CameraPipeline, PinholeCamera};
 use robot_host::camera_capture::{CaptureError, FrameSource, PixelFormat, RawFrame};
 
 use host::geoimage::{GeoImage, GeographicGeoref, write_geotiff_geographic_rgb8};
+use host::recording::part_path;
 use robot_host::LinkCounters;
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::outputs::write_outputs;
@@ -386,7 +387,14 @@ impl DaemonSetup {
             SlamMethod::Grid
         };
         config.slam.grid_max_range_m = 8.0;
-        config.record.path = Some(out.join("run.mcap"));
+        let recording = out.join("run.mcap");
+        // An earlier run's recording in the same folder, and its further parts, make way.
+        for index in 0.. {
+            if fs::remove_file(part_path(&recording, index)).is_err() {
+                break;
+            }
+        }
+        config.record.path = Some(recording);
         config.georef.image.clone_from(&image);
         let datum = scenario.datum();
         config.georef.datum_lat_lon_deg = Some([datum.lat_deg, datum.lon_deg]);

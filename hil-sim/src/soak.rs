@@ -222,7 +222,6 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     )?;
     let flush_interval_s = config.record.flush_interval_s;
     let recording_path = options.out.join("run.mcap");
-    let _ = fs::remove_file(&recording_path);
     let config_path = options.out.join("robot-host.toml");
     fs::write(&config_path, config.to_toml())?;
 

@@ -221,6 +221,10 @@ pub struct RecordConfig {
     /// The recording is flushed to disk every this many seconds: a crash loses at most this
     /// much.
     pub flush_interval_s: f64,
+    /// After this many seconds the recording goes on in its next file (`run.mcap`, then
+    /// `run_1.mcap`, …; replay reads them in turn from the first): the recorder's index of
+    /// a file grows with the time in it.
+    pub part_length_s: f64,
 }
 
 impl Default for RecordConfig {
@@ -228,6 +232,7 @@ impl Default for RecordConfig {
         RecordConfig {
             path: None,
             flush_interval_s: 1.0,
+            part_length_s: 600.0,
         }
     }
 }
@@ -405,6 +410,7 @@ impl DaemonConfig {
         positive("slam.grid_max_range_m", self.slam.grid_max_range_m)?;
         positive("slam.grid_resolution_m", self.slam.grid_resolution_m)?;
         positive("record.flush_interval_s", self.record.flush_interval_s)?;
+        positive("record.part_length_s", self.record.part_length_s)?;
         positive("georef.goal_margin_m", self.georef.goal_margin_m)?;
         if self.link.baud == 0 {
             return Err(ConfigError::Invalid("link.baud must not be 0".into()));

@@ -221,6 +221,7 @@ impl Daemon {
                 path,
                 RecorderOptions {
                     flush_interval_s: config.record.flush_interval_s,
+                    part_length_s: Some(config.record.part_length_s),
                     ..RecorderOptions::default()
                 },
             )?),

@@ -7,7 +7,8 @@
 //! chunk.
 //!
 //! * [`Recorder`]: writes a recording as the run goes.
-//! * [`read_recording`]: reads one back, cut short or not ([`read_recording_from`] from any reader).
+//! * [`read_recording`]: reads one back, cut short or not, with its further parts
+//!   ([`part_path`]; [`read_recording_from`] reads one file from any reader).
 //! * [`topics`]: the channels the host writes besides the board's ([`board_topic`]).
 //! * [`foxglove_messages`] and [`json_schema`]: the encodings the recording shares with the
 //!   daemon's live view.
@@ -29,4 +30,4 @@ pub use reader::{
     read_recording_from, read_recording_with_camera,
 };
 pub use record_fields::FieldOverrun;
-pub use recorder::{Recorder, RecorderOptions, RecordingSummary};
+pub use recorder::{Recorder, RecorderOptions, RecordingSummary, part_path};

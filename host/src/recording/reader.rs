@@ -9,11 +9,15 @@
 //! records a replay does not need (schemas, attachments, metadata, indexes, statistics) are
 //! passed over unparsed. Before the MCAP library parses a header or a channel, its
 //! length-prefixed fields are checked against the record ([`record_fields`]).
+//!
+//! A recording the recorder went on in further parts ([`super::recorder::part_path`]) reads
+//! as one: every part in turn, each checked as above, with the records of all of them in
+//! log-time order.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{self, BufReader, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use mcap::McapError;
 use mcap::records::{ChunkHeader, Record, op};
@@ -21,7 +25,7 @@ use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::error::RecordingError;
 use super::record_fields;
-use super::recorder::time_s;
+use super::recorder::{part_path, time_s};
 use super::topics::{CAMERA_IMAGE_TOPIC, RAW_TOPIC, RECONNECT_TOPIC, SENT_TOPIC};
 
 /// The longest record (or uncompressed chunk) read, bytes: far above what the recorder
@@ -96,15 +100,16 @@ pub struct Recording {
 }
 
 /// Reads the recording at `path`, tolerating a file cut short by a kill (see the
-/// [module documentation](self)).
+/// [module documentation](self)), and its further parts after it in order
+/// ([`super::recorder::part_path`]: `run_1.mcap`, `run_2.mcap`, … while they exist).
 ///
 /// # Errors
 /// [`RecordingError::Open`] if the file cannot be opened or a read fails,
 /// [`RecordingError::NotMcap`] if it is not an MCAP file, [`RecordingError::FieldOverrun`]
 /// if a record's field claims more bytes than the record holds, [`RecordingError::Corrupt`]
-/// if it is damaged otherwise (other than by being cut short).
+/// if it is damaged otherwise (other than by being cut short); each naming the part.
 pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
-    read_file(path, false)
+    read_parts(path, false)
 }
 
 /// [`read_recording`] with the camera's frames ([`Recording::camera_images`]), which the
@@ -113,121 +118,43 @@ pub fn read_recording(path: &Path) -> Result<Recording, RecordingError> {
 /// # Errors
 /// As [`read_recording`].
 pub fn read_recording_with_camera(path: &Path) -> Result<Recording, RecordingError> {
-    read_file(path, true)
+    read_parts(path, true)
 }
 
-fn read_file(path: &Path, camera_images: bool) -> Result<Recording, RecordingError> {
-    let file = File::open(path).map_err(|source| RecordingError::Open {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    read_from(BufReader::new(file), path, camera_images)
+fn read_parts(path: &Path, camera_images: bool) -> Result<Recording, RecordingError> {
+    let mut records = Records::new(camera_images);
+    for index in 0.. {
+        let part = part_path(path, index);
+        let file = match File::open(&part) {
+            Ok(file) => file,
+            // The parts end where the next is missing; the first must be there.
+            Err(e) if index > 0 && e.kind() == io::ErrorKind::NotFound => break,
+            Err(source) => return Err(RecordingError::Open { path: part, source }),
+        };
+        records.read_part(BufReader::new(file), &part)?;
+    }
+    Ok(records.into_recording())
 }
 
 /// Reads a recording from `source` (a file's bytes, a pipe); `path` names it in errors. As
-/// [`read_recording`] after opening the file.
+/// [`read_recording`] after opening the file, but for this one file, not its further parts.
 ///
 /// # Errors
 /// As [`read_recording`].
 pub fn read_recording_from(source: impl Read, path: &Path) -> Result<Recording, RecordingError> {
-    read_from(source, path, true)
-}
-
-fn read_from(
-    mut source: impl Read,
-    path: &Path,
-    camera_images: bool,
-) -> Result<Recording, RecordingError> {
-    let mut magic = [0u8; 8];
-    match source.read_exact(&mut magic) {
-        Ok(()) if magic == mcap::MAGIC => {}
-        Ok(()) => return Err(not_mcap(path)),
-        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Err(not_mcap(path)),
-        Err(source) => {
-            return Err(RecordingError::Open {
-                path: path.to_path_buf(),
-                source,
-            });
-        }
-    }
-    let options = LinearReaderOptions::default()
-        // Whole chunks, read here (see `read_chunk`): a chunk is used only once all of it is
-        // there.
-        .with_emit_chunks(true)
-        .with_record_length_limit(MAX_RECORD_BYTES);
-    let mut reader = LinearReader::new_with_options(options);
-    let mut input = magic.chain(source);
-
-    let mut recording = Recording::default();
-    let mut records = Records {
-        path,
-        recording: &mut recording,
-        camera_images,
-        topics: HashMap::new(),
-        reads: Vec::new(),
-        link: Vec::new(),
-    };
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let read = loop {
-                    match input.read(reader.insert(need)) {
-                        Ok(n) => break n,
-                        Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                        Err(source) => {
-                            return Err(RecordingError::Open {
-                                path: path.to_path_buf(),
-                                source,
-                            });
-                        }
-                    }
-                };
-                reader.notify_read(read);
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => records.take(opcode, data)?,
-            Err(McapError::UnexpectedEof) => {
-                records.recording.truncated = true;
-                break;
-            }
-            Err(error) => return Err(records.corrupt(error)),
-        }
-    }
-    let Records {
-        mut reads,
-        mut link,
-        ..
-    } = records;
-    // Stable: records with equal times stay in file order.
-    link.sort_by_key(|&(log_time_ns, _, _)| log_time_ns);
-    recording.link = link
-        .into_iter()
-        .map(|(log_time_ns, direction, bytes)| LinkRecord {
-            time_s: time_s(log_time_ns),
-            direction,
-            bytes,
-        })
-        .collect();
-    recording
-        .camera_images
-        .sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-    reads.sort_by_key(|&(log_time_ns, _)| log_time_ns);
-    recording.raw_reads = reads
-        .into_iter()
-        .map(|(log_time_ns, bytes)| RawRead {
-            recv_time_s: time_s(log_time_ns),
-            bytes,
-        })
-        .collect();
-    Ok(recording)
+    let mut records = Records::new(true);
+    records.read_part(source, path)?;
+    Ok(records.into_recording())
 }
 
 /// What the reader keeps of the records it has taken so far.
-struct Records<'a> {
-    path: &'a Path,
-    recording: &'a mut Recording,
+struct Records {
+    /// The part being read, which errors name.
+    path: PathBuf,
+    recording: Recording,
     /// Whether the camera's frames are kept.
     camera_images: bool,
-    /// Each channel's topic.
+    /// Each channel's topic, in the part being read.
     topics: HashMap<u16, String>,
     /// The raw reads: log time, bytes.
     reads: Vec<(u64, Vec<u8>)>,
@@ -235,10 +162,105 @@ struct Records<'a> {
     link: Vec<(u64, LinkDirection, Vec<u8>)>,
 }
 
-impl Records<'_> {
+impl Records {
+    fn new(camera_images: bool) -> Records {
+        Records {
+            path: PathBuf::new(),
+            recording: Recording::default(),
+            camera_images,
+            topics: HashMap::new(),
+            reads: Vec::new(),
+            link: Vec::new(),
+        }
+    }
+
+    /// Takes the records of one file (the recording's first or a further part), tolerating
+    /// its being cut short.
+    fn read_part(&mut self, mut source: impl Read, path: &Path) -> Result<(), RecordingError> {
+        self.path = path.to_path_buf();
+        self.topics.clear();
+        let mut magic = [0u8; 8];
+        match source.read_exact(&mut magic) {
+            Ok(()) if magic == mcap::MAGIC => {}
+            Ok(()) => return Err(not_mcap(path)),
+            Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Err(not_mcap(path)),
+            Err(source) => {
+                return Err(RecordingError::Open {
+                    path: path.to_path_buf(),
+                    source,
+                });
+            }
+        }
+        let options = LinearReaderOptions::default()
+            // Whole chunks, read here (see `read_chunk`): a chunk is used only once all of it
+            // is there.
+            .with_emit_chunks(true)
+            .with_record_length_limit(MAX_RECORD_BYTES);
+        let mut reader = LinearReader::new_with_options(options);
+        let mut input = magic.chain(source);
+        while let Some(event) = reader.next_event() {
+            match event {
+                Ok(LinearReadEvent::ReadRequest(need)) => {
+                    let read = loop {
+                        match input.read(reader.insert(need)) {
+                            Ok(n) => break n,
+                            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                            Err(source) => {
+                                return Err(RecordingError::Open {
+                                    path: path.to_path_buf(),
+                                    source,
+                                });
+                            }
+                        }
+                    };
+                    reader.notify_read(read);
+                }
+                Ok(LinearReadEvent::Record { opcode, data }) => self.take(opcode, data)?,
+                Err(McapError::UnexpectedEof) => {
+                    self.recording.truncated = true;
+                    break;
+                }
+                Err(error) => return Err(self.corrupt(error)),
+            }
+        }
+        Ok(())
+    }
+
+    /// The recording the parts read hold, every record in log-time order.
+    fn into_recording(self) -> Recording {
+        let Records {
+            mut recording,
+            mut reads,
+            mut link,
+            ..
+        } = self;
+        // Stable: records with equal times stay in file order.
+        link.sort_by_key(|&(log_time_ns, _, _)| log_time_ns);
+        recording.link = link
+            .into_iter()
+            .map(|(log_time_ns, direction, bytes)| LinkRecord {
+                time_s: time_s(log_time_ns),
+                direction,
+                bytes,
+            })
+            .collect();
+        recording
+            .camera_images
+            .sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        reads.sort_by_key(|&(log_time_ns, _)| log_time_ns);
+        recording.raw_reads = reads
+            .into_iter()
+            .map(|(log_time_ns, bytes)| RawRead {
+                recv_time_s: time_s(log_time_ns),
+                bytes,
+            })
+            .collect();
+        recording
+    }
+
     fn corrupt(&self, error: McapError) -> RecordingError {
         RecordingError::Corrupt {
-            path: self.path.to_path_buf(),
+            path: self.path.clone(),
             source: error,
         }
     }
@@ -259,7 +281,7 @@ impl Records<'_> {
             && let Err(overrun) = record_fields::check_fields(data, layout)
         {
             return Err(RecordingError::FieldOverrun {
-                path: self.path.to_path_buf(),
+                path: self.path.clone(),
                 opcode,
                 overrun,
             });
@@ -427,6 +449,11 @@ mod tests {
     impl Drop for TempPath {
         fn drop(&mut self) {
             let _ = std::fs::remove_file(&self.0);
+            for index in 1.. {
+                if std::fs::remove_file(part_path(&self.0, index)).is_err() {
+                    break;
+                }
+            }
         }
     }
 
@@ -576,6 +603,102 @@ mod tests {
             .map(|r| link.feed(&r.bytes).len())
             .sum();
         assert_eq!(replayed, 60);
+    }
+
+    #[test]
+    fn a_recording_in_parts_reads_as_one_and_each_part_opens_alone() {
+        let reads = synthetic_reads(60);
+        let whole_path = TempPath::new("whole");
+        let mut recorder = Recorder::create(
+            &whole_path.0,
+            RecorderOptions {
+                part_length_s: None,
+                ..options()
+            },
+        )
+        .unwrap();
+        record(&mut recorder, &reads, 7);
+        let whole_summary = recorder.finish().unwrap();
+        assert_eq!(whole_summary.parts, 1);
+        let whole = read_recording(&whole_path.0).unwrap();
+
+        let parts_path = TempPath::new("parts");
+        let options = RecorderOptions {
+            flush_interval_s: 0.05,
+            part_length_s: Some(0.2),
+            ..options()
+        };
+        let mut recorder = Recorder::create(&parts_path.0, options).unwrap();
+        record(&mut recorder, &reads, 7);
+        let summary = recorder.finish().unwrap();
+        let span_s = reads.last().unwrap().0 - reads[0].0;
+        assert!(
+            summary.parts as f64 >= (span_s / 0.2).floor(),
+            "{summary:?}"
+        );
+        assert_eq!(summary.message_counts, whole_summary.message_counts);
+
+        // Read from the first part's path, the parts make the recording written in one file.
+        let recording = read_recording(&parts_path.0).unwrap();
+        assert_eq!(recording, whole);
+        // Each part is a finished MCAP file of its own, its records in order after the last.
+        let mut raw_reads = Vec::new();
+        let mut counted = BTreeMap::<String, u64>::new();
+        for index in 0..summary.parts {
+            let part = part_path(&parts_path.0, index);
+            let alone = read_recording_from(File::open(&part).unwrap(), &part).unwrap();
+            assert!(!alone.truncated, "{}", part.display());
+            assert!(!alone.raw_reads.is_empty(), "{}", part.display());
+            raw_reads.extend(alone.raw_reads);
+            for (topic, count) in alone.message_counts {
+                *counted.entry(topic).or_default() += count;
+            }
+        }
+        assert_eq!(raw_reads, whole.raw_reads);
+        assert_eq!(counted, whole.message_counts);
+        assert!(!part_path(&parts_path.0, summary.parts).exists());
+    }
+
+    #[test]
+    fn a_kill_in_a_later_part_keeps_every_part_before_it() {
+        let reads = synthetic_reads(60);
+        let path = TempPath::new("parts-killed");
+        let options = RecorderOptions {
+            flush_interval_s: 0.05,
+            part_length_s: Some(0.2),
+            ..options()
+        };
+        let mut recorder = Recorder::create(&path.0, options).unwrap();
+        record(&mut recorder, &reads, 7);
+        let summary = recorder.finish().unwrap();
+        assert!(summary.parts >= 3, "{summary:?}");
+        let earlier: usize = (0..summary.parts - 1)
+            .map(|index| {
+                let part = part_path(&path.0, index);
+                let alone = read_recording_from(File::open(&part).unwrap(), &part).unwrap();
+                alone.raw_reads.len()
+            })
+            .sum();
+        // The last part killed right after it was opened: its magic on disk, nothing else.
+        let last = part_path(&path.0, summary.parts - 1);
+        let bytes = std::fs::read(&last).unwrap();
+        std::fs::write(&last, &bytes[..8]).unwrap();
+        let recording = read_recording(&path.0).unwrap();
+        assert!(recording.truncated);
+        assert_eq!(recording.raw_reads.len(), earlier);
+        assert!(earlier > 0 && earlier < reads.len());
+        for (read, (t, bytes)) in recording.raw_reads.iter().zip(&reads) {
+            assert_eq!(&read.bytes, bytes);
+            assert!((read.recv_time_s - t).abs() < 1e-9);
+        }
+
+        // A part left in the way stops a new recording at its start, not at the split.
+        std::fs::remove_file(&path.0).unwrap();
+        let refused = Recorder::create(&path.0, RecorderOptions::default()).unwrap_err();
+        assert!(
+            matches!(&refused, RecordingError::Create { path: p, .. } if *p == part_path(&path.0, 1)),
+            "{refused}"
+        );
     }
 
     #[test]

@@ -20,6 +20,13 @@
 //! device. If the process dies, the file holds every flushed chunk and
 //! [`super::read_recording`] reads them back; only the summary and footer, which
 //! [`Recorder::finish`] writes, are missing.
+//!
+//! **Parts.** An MCAP writer keeps an index entry for every chunk it has written until it
+//! writes the file's summary, so one file recorded for a day would grow the recorder's memory
+//! with the day. After [`RecorderOptions::part_length_s`] of recorded time the recorder
+//! finishes the file, summary and all, and goes on in the next part: `run.mcap`, then
+//! `run_1.mcap`, `run_2.mcap`, … ([`part_path`]), each a whole MCAP file that opens on its
+//! own. [`super::read_recording`] reads the parts in order as one recording.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -54,6 +61,10 @@ pub struct RecorderOptions {
     /// Make each flush wait until the data is on the storage device, so that flushed chunks
     /// survive a power cut too, not only a killed process.
     pub sync_on_flush: bool,
+    /// Recorded time after which the recording goes on in its next part, s (see the
+    /// [module documentation](self)); `None`: one file, whose index grows with the time
+    /// recorded.
+    pub part_length_s: Option<f64>,
 }
 
 impl Default for RecorderOptions {
@@ -63,20 +74,39 @@ impl Default for RecorderOptions {
             chunk_size: Some(1024 * 1024),
             compress: true,
             sync_on_flush: true,
+            part_length_s: Some(600.0),
         }
     }
 }
 
 /// What a finished recording holds.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
 pub struct RecordingSummary {
     /// Messages per topic (topics without messages are left out).
     pub message_counts: BTreeMap<String, u64>,
-    /// Chunks written.
+    /// Chunks written, over every part.
     pub chunk_count: u32,
+    /// Files written: the first, then its parts ([`part_path`]).
+    pub parts: u32,
 }
 
-/// A channel of the file and the sequence number of its next message.
+/// The file of part `index` of the recording at `path`: `path` itself for part 0, else
+/// `path` with `_<index>` after its stem (`run.mcap`: `run_1.mcap`, `run_2.mcap`, …).
+pub fn part_path(path: &Path, index: u32) -> PathBuf {
+    if index == 0 {
+        return path.to_path_buf();
+    }
+    let mut name = path.file_stem().unwrap_or_default().to_os_string();
+    name.push(format!("_{index}"));
+    if let Some(extension) = path.extension() {
+        name.push(".");
+        name.push(extension);
+    }
+    path.with_file_name(name)
+}
+
+/// A channel of the current part and the sequence number of its next message (which carries
+/// on from one part to the next).
 #[derive(Debug, Clone, Copy)]
 struct ChannelState {
     id: u16,
@@ -88,11 +118,25 @@ struct ChannelState {
 /// Dropping a recorder finishes the file as [`Recorder::finish`] does but ignores errors.
 pub struct Recorder {
     writer: mcap::Writer<DurableFile>,
+    write_options: mcap::WriteOptions,
+    sync_on_flush: bool,
+    /// The first part's file, which names the recording.
+    first_path: PathBuf,
+    /// The current part's file, and its index.
     path: PathBuf,
+    part: u32,
     flush_interval_s: f64,
+    part_length_s: Option<f64>,
+    /// The current part's channels (each part adds its own).
     channels: HashMap<&'static str, ChannelState>,
+    /// Sequence numbers of the channels of the parts finished.
+    next_sequences: HashMap<&'static str, u32>,
+    /// What the finished parts hold.
+    finished: RecordingSummary,
     /// Recorded time of the last flush, s (`None` before the first record).
     last_flush_s: Option<f64>,
+    /// Recorded time of the current part's first record, s.
+    part_start_s: Option<f64>,
     /// Latest time recorded, s (`None` before the first record).
     latest_s: Option<f64>,
 }
@@ -107,25 +151,39 @@ impl std::fmt::Debug for Recorder {
 }
 
 impl Recorder {
-    /// Creates the recording at `path`, which must not exist yet, and writes its header and
-    /// the raw channel to disk.
+    /// Creates the recording at `path`, which must not exist yet (nor its first further part,
+    /// [`part_path`]), and writes its header and the raw channel to disk.
     ///
     /// # Errors
-    /// [`RecordingError::InvalidOptions`] for a flush interval that is not a positive number,
-    /// [`RecordingError::Create`] if the file exists or cannot be created,
-    /// [`RecordingError::Write`] if the header cannot be written.
+    /// [`RecordingError::InvalidOptions`] for a flush interval or a part length that is not
+    /// a positive number, [`RecordingError::Create`] if the file or its first further part
+    /// exists or the file cannot be created, [`RecordingError::Write`] if the header cannot
+    /// be written.
     pub fn create(path: &Path, options: RecorderOptions) -> Result<Recorder, RecordingError> {
-        // NaN is refused too.
-        if options.flush_interval_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return Err(RecordingError::InvalidOptions(format!(
-                "flush_interval_s must be a positive number of seconds, got {}",
-                options.flush_interval_s
-            )));
+        for (name, value) in [
+            ("flush_interval_s", Some(options.flush_interval_s)),
+            ("part_length_s", options.part_length_s),
+        ] {
+            // NaN is refused too.
+            if let Some(value) = value
+                && value.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            {
+                return Err(RecordingError::InvalidOptions(format!(
+                    "{name} must be a positive number of seconds, got {value}"
+                )));
+            }
         }
-        let file = File::create_new(path).map_err(|source| RecordingError::Create {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        // A part left from an earlier recording would stop this one when it reaches it.
+        let next_part = part_path(path, 1);
+        if next_part.exists() {
+            return Err(RecordingError::Create {
+                path: next_part,
+                source: std::io::Error::new(
+                    std::io::ErrorKind::AlreadyExists,
+                    "a part of an earlier recording is in the way",
+                ),
+            });
+        }
         let write_options = mcap::WriteOptions::new()
             // Profile "": no ROS conventions; Foxglove reads the schemas as given.
             .profile("")
@@ -134,18 +192,21 @@ impl Recorder {
             // Build each chunk in memory and write it whole: the file never holds a chunk
             // whose header is still to be patched.
             .disable_seeking(true);
-        let writer = write_options
-            .create(DurableFile::new(file, options.sync_on_flush))
-            .map_err(|source| RecordingError::Write {
-                path: path.to_path_buf(),
-                source,
-            })?;
+        let writer = create_part(path, &write_options, options.sync_on_flush)?;
         let mut recorder = Recorder {
             writer,
+            write_options,
+            sync_on_flush: options.sync_on_flush,
+            first_path: path.to_path_buf(),
             path: path.to_path_buf(),
+            part: 0,
             flush_interval_s: options.flush_interval_s,
+            part_length_s: options.part_length_s,
             channels: HashMap::new(),
+            next_sequences: HashMap::new(),
+            finished: RecordingSummary::default(),
             last_flush_s: None,
+            part_start_s: None,
             latest_s: None,
         };
         recorder.ensure_raw_channel()?;
@@ -153,7 +214,7 @@ impl Recorder {
         Ok(recorder)
     }
 
-    /// The file being written.
+    /// The file being written: the recording's first, or the part it has reached.
     pub fn path(&self) -> &Path {
         &self.path
     }
@@ -282,48 +343,48 @@ impl Recorder {
     /// [`RecordingError::Write`] if the file cannot be written.
     pub fn finish(self) -> Result<RecordingSummary, RecordingError> {
         let Recorder {
-            mut writer,
+            writer,
             path,
             channels,
+            mut finished,
             ..
         } = self;
-        let write_error = |source| RecordingError::Write {
-            path: path.clone(),
-            source,
-        };
-        let summary = writer.finish().map_err(write_error)?;
-        writer
-            .into_inner()
-            .flush()
-            .map_err(|e| write_error(e.into()))?;
-        let topic_of: HashMap<u16, &str> = channels
-            .iter()
-            .map(|(topic, state)| (state.id, *topic))
-            .collect();
-        let stats = summary.stats.unwrap_or_default();
-        let message_counts = stats
-            .channel_message_counts
-            .iter()
-            .map(|(id, &count)| {
-                let topic = topic_of.get(id).copied().unwrap_or("?");
-                (topic.to_string(), count)
-            })
-            .collect();
-        Ok(RecordingSummary {
-            message_counts,
-            chunk_count: stats.chunk_count,
-        })
+        finish_part(writer, &path, &channels, &mut finished)?;
+        Ok(finished)
     }
 
-    /// Flushes once `flush_interval_s` of recorded time has passed since the last flush.
+    /// Finishes the current part and goes on in the next one, its header and raw channel
+    /// on disk.
+    fn start_next_part(&mut self) -> Result<(), RecordingError> {
+        let next_path = part_path(&self.first_path, self.part + 1);
+        let next = create_part(&next_path, &self.write_options, self.sync_on_flush)?;
+        let writer = std::mem::replace(&mut self.writer, next);
+        let channels = std::mem::take(&mut self.channels);
+        finish_part(writer, &self.path, &channels, &mut self.finished)?;
+        for (topic, state) in channels {
+            self.next_sequences.insert(topic, state.next_sequence);
+        }
+        self.part += 1;
+        self.path = next_path;
+        self.part_start_s = None;
+        self.ensure_raw_channel()?;
+        self.flush()
+    }
+
+    /// Flushes once `flush_interval_s` of recorded time has passed since the last flush, and
+    /// at such a flush goes on in the next part once the current one holds `part_length_s`.
     fn after_record(&mut self, time_s: f64) -> Result<(), RecordingError> {
         self.latest_s = Some(
             self.latest_s
                 .map_or(time_s, |latest_s| latest_s.max(time_s)),
         );
+        let part_start_s = *self.part_start_s.get_or_insert(time_s);
         match self.last_flush_s {
             None => self.last_flush_s = Some(time_s),
-            Some(last_s) if time_s - last_s >= self.flush_interval_s => self.flush()?,
+            Some(last_s) if time_s - last_s >= self.flush_interval_s => match self.part_length_s {
+                Some(length_s) if time_s - part_start_s >= length_s => self.start_next_part()?,
+                _ => self.flush()?,
+            },
             Some(_) => {}
         }
         Ok(())
@@ -366,7 +427,7 @@ impl Recorder {
                 topic,
                 ChannelState {
                     id,
-                    next_sequence: 0,
+                    next_sequence: self.next_sequences.get(topic).copied().unwrap_or(0),
                 },
             );
         }
@@ -434,6 +495,59 @@ impl Recorder {
     }
 }
 
+/// Writes the summary and footer of the part at `path` whose channels are `channels`, and
+/// adds what it holds to `finished`.
+fn finish_part(
+    mut writer: mcap::Writer<DurableFile>,
+    path: &Path,
+    channels: &HashMap<&'static str, ChannelState>,
+    finished: &mut RecordingSummary,
+) -> Result<(), RecordingError> {
+    let write_error = |source| RecordingError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let summary = writer.finish().map_err(write_error)?;
+    writer
+        .into_inner()
+        .flush()
+        .map_err(|e| write_error(e.into()))?;
+    let topic_of: HashMap<u16, &str> = channels
+        .iter()
+        .map(|(topic, state)| (state.id, *topic))
+        .collect();
+    let stats = summary.stats.unwrap_or_default();
+    for (id, &count) in &stats.channel_message_counts {
+        let topic = topic_of.get(id).copied().unwrap_or("?");
+        *finished
+            .message_counts
+            .entry(topic.to_string())
+            .or_default() += count;
+    }
+    finished.chunk_count += stats.chunk_count;
+    finished.parts += 1;
+    Ok(())
+}
+
+/// Creates the file of a part, which must not exist yet, and an MCAP writer on it.
+fn create_part(
+    path: &Path,
+    write_options: &mcap::WriteOptions,
+    sync_on_flush: bool,
+) -> Result<mcap::Writer<DurableFile>, RecordingError> {
+    let file = File::create_new(path).map_err(|source| RecordingError::Create {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    write_options
+        .clone()
+        .create(DurableFile::new(file, sync_on_flush))
+        .map_err(|source| RecordingError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
 /// Host time `time_s` as MCAP nanoseconds, `round(time_s · 10⁹)`.
 ///
 /// # Errors
@@ -492,5 +606,22 @@ mod tests {
         );
         recorder.finish().unwrap();
         std::fs::remove_file(&path).unwrap();
+        let bad = RecorderOptions {
+            part_length_s: Some(0.0),
+            ..Default::default()
+        };
+        assert!(matches!(
+            Recorder::create(&path, bad),
+            Err(RecordingError::InvalidOptions(_))
+        ));
+    }
+
+    #[test]
+    fn parts_are_named_after_the_first() {
+        let first = Path::new("/data/run.mcap");
+        assert_eq!(part_path(first, 0), first);
+        assert_eq!(part_path(first, 1), Path::new("/data/run_1.mcap"));
+        assert_eq!(part_path(first, 12), Path::new("/data/run_12.mcap"));
+        assert_eq!(part_path(Path::new("run"), 2), Path::new("run_2"));
     }
 }

@@ -79,6 +79,10 @@ pub struct ConfigArgs {
     /// Flush the recording every this many seconds [record.flush_interval_s].
     #[arg(long)]
     pub flush_interval_s: Option<f64>,
+    /// Go on in the recording's next file (run_1.mcap, run_2.mcap, …) after this many
+    /// seconds [record.part_length_s].
+    #[arg(long)]
+    pub part_length_s: Option<f64>,
     /// Geo-referenced image under the map (GeoTIFF, or PNG/JPEG with a world file)
     /// [georef.image].
     #[arg(long)]
@@ -174,6 +178,9 @@ impl ConfigArgs {
         }
         if let Some(v) = self.flush_interval_s {
             c.record.flush_interval_s = v;
+        }
+        if let Some(v) = self.part_length_s {
+            c.record.part_length_s = v;
         }
         if let Some(v) = &self.image {
             c.georef.image = Some(v.clone());
