@@ -22,7 +22,7 @@ use hil_sim::demo;
 use hil_sim::pty::PtyLink;
 use hil_sim::world::WorldKind;
 use host::link::LinkSession;
-use host::recording::{LinkDirection, read_recording};
+use host::recording::{LinkDirection, part_path, read_recording};
 use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions};
 use protocol::{Encoder, HeartbeatMsg, MAX_WIRE_LEN, MeasuringMode, Message, RangeUnit, ScanMsg};
 use robot_host::config::{DaemonConfig, SlamMethod};
@@ -302,6 +302,10 @@ fn the_daemon_reopens_its_port_and_keeps_its_state() {
     config.web.enabled = false;
     config.web.foxglove_listen = None;
     config.record.path = Some(dir.join("run.mcap"));
+    // Parts of a fifth of a second: the recording goes on in further files, which the
+    // replay below reads as one.
+    config.record.flush_interval_s = 0.1;
+    config.record.part_length_s = 0.2;
     let opener = SerialPortOpener {
         path: config.link.port.clone(),
         baud: config.link.baud,
@@ -365,6 +369,10 @@ fn the_daemon_reopens_its_port_and_keeps_its_state() {
         "every scan before and after the reconnect reached the map"
     );
     // The recording holds the reconnect, so a replay counts it too.
+    assert!(
+        part_path(&dir.join("run.mcap"), 1).exists(),
+        "the recording went on in further parts"
+    );
     let (replayed, _) = replay(&dir.join("run.mcap"), &config, None, false).expect("replays");
     assert_eq!(replayed.state.counters.reconnects, 1);
     assert_eq!(replayed.state.counters.telegrams, after.telegrams);

@@ -261,7 +261,8 @@ pub struct RunArgs {
 /// `robot-host replay`.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
-    /// The MCAP recording made by `robot-host run --record`.
+    /// The MCAP recording made by `robot-host run --record` (its first file: the parts
+    /// after it, run_1.mcap, run_2.mcap, …, are read in turn).
     file: PathBuf,
     #[command(flatten)]
     config: ConfigArgs,
