@@ -307,17 +307,7 @@ impl Constellation {
         }
         let local_pairs = self.local_pairs(&local);
         let votes = self.vote(&local, &local_pairs);
-        let mut ranked: Vec<(VoteKey, Vote)> = votes.into_iter().collect();
-        // Most votes first; the key breaks ties so the result does not depend on hashing.
-        // Only the first `verified_hypotheses` are kept, so only they are sorted.
-        let most_voted_first = |a: &(VoteKey, Vote), b: &(VoteKey, Vote)| {
-            b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0))
-        };
-        if ranked.len() > kept {
-            ranked.select_nth_unstable_by(kept - 1, most_voted_first);
-            ranked.truncate(kept);
-        }
-        ranked.sort_unstable_by(most_voted_first);
+        let ranked = most_voted(votes, kept);
         let mut verified: Vec<PlaceMatch> = ranked
             .iter()
             .filter_map(|(_, vote)| {
@@ -704,6 +694,26 @@ impl Constellation {
 
 /// `a_from_b ⊕ point_in_b`, summed as [`super::frames::transform_point`] sums it, without the
 /// Jacobians.
+/// The `kept` cells of `votes` with the most votes, most first; the key breaks ties, so the
+/// result does not depend on hashing. Taken from the table as it is walked, so that only
+/// those cells are ever copied out of it: the table holds thousands of cells once a park is
+/// mapped, and a copy of all of them, beside the table, would double a join's memory.
+fn most_voted(votes: FastMap<VoteKey, Vote>, kept: usize) -> Vec<(VoteKey, Vote)> {
+    let ranks_before = |a: &(VoteKey, Vote), b: &(VoteKey, Vote)| {
+        b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0)) == std::cmp::Ordering::Less
+    };
+    let mut best: Vec<(VoteKey, Vote)> = Vec::with_capacity(kept + 1);
+    for cell in votes {
+        if best.len() == kept && best.last().is_none_or(|last| !ranks_before(&cell, last)) {
+            continue;
+        }
+        let at = best.partition_point(|kept_cell| ranks_before(kept_cell, &cell));
+        best.insert(at, cell);
+        best.truncate(kept);
+    }
+    best
+}
+
 pub(crate) fn transform(a_from_b: Pose2, point_in_b: [f64; 2]) -> [f64; 2] {
     let (sin, cos) = a_from_b.theta_rad.sin_cos();
     [
@@ -898,6 +908,33 @@ mod tests {
         assert_eq!(fit_rigid(&from[..1], &to[..1]), None);
         assert_eq!(fit_rigid(&[[1.0, 1.0]; 3], &[[2.0, 0.0]; 3]), None);
         assert_eq!(fit_rigid(&from, &to[..3]), None);
+    }
+
+    #[test]
+    fn the_most_voted_cells_are_the_first_of_the_whole_table_sorted() {
+        // Cells with few distinct counts, so that ties are many and the key must break them.
+        let votes: FastMap<VoteKey, Vote> = (0..5_000u32)
+            .map(|i| {
+                let key = (
+                    (i % 7) as i32,
+                    (i / 7 % 31) as i32 - 15,
+                    (i.wrapping_mul(2_654_435_761) % 97) as i32,
+                );
+                let vote = Vote {
+                    count: i.wrapping_mul(2_654_435_761) % 5,
+                    local_pair: i,
+                    old_first: i,
+                    old_second: i,
+                };
+                (key, vote)
+            })
+            .collect();
+        let mut sorted: Vec<(VoteKey, Vote)> = votes.clone().into_iter().collect();
+        sorted.sort_by(|a, b| b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0)));
+        for kept in [1, 24, 1_000, 10_000] {
+            let expected = &sorted[..kept.min(sorted.len())];
+            assert_eq!(most_voted(votes.clone(), kept), expected, "{kept} kept");
+        }
     }
 
     #[test]
