@@ -432,7 +432,7 @@ mod tests {
     use crate::PoseView;
     use crate::link::LinkReader;
     use crate::recording::topics::{GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC};
-    use crate::recording::{Recorder, RecorderOptions, board_topic};
+    use crate::recording::{Recorder, RecorderOptions, RecordingSummary, board_topic};
 
     /// A fresh path in the temporary folder (removed when dropped).
     struct TempPath(PathBuf);
@@ -563,6 +563,18 @@ mod tests {
         topics
     }
 
+    /// Records `reads` at `path` in parts of 0.2 s, flushing every 0.05 s and every 7 reads.
+    fn record_in_parts(path: &Path, reads: &[(f64, Vec<u8>)]) -> RecordingSummary {
+        let options = RecorderOptions {
+            flush_interval_s: 0.05,
+            part_length_s: Some(0.2),
+            ..options()
+        };
+        let mut recorder = Recorder::create(path, options).unwrap();
+        record(&mut recorder, reads, 7);
+        recorder.finish().unwrap()
+    }
+
     fn counts(topics: &[&str], raw_reads: usize) -> BTreeMap<String, u64> {
         let mut counts = BTreeMap::new();
         for topic in topics {
@@ -623,14 +635,7 @@ mod tests {
         let whole = read_recording(&whole_path.0).unwrap();
 
         let parts_path = TempPath::new("parts");
-        let options = RecorderOptions {
-            flush_interval_s: 0.05,
-            part_length_s: Some(0.2),
-            ..options()
-        };
-        let mut recorder = Recorder::create(&parts_path.0, options).unwrap();
-        record(&mut recorder, &reads, 7);
-        let summary = recorder.finish().unwrap();
+        let summary = record_in_parts(&parts_path.0, &reads);
         let span_s = reads.last().unwrap().0 - reads[0].0;
         assert!(
             summary.parts as f64 >= (span_s / 0.2).floor(),
@@ -663,14 +668,7 @@ mod tests {
     fn a_kill_in_a_later_part_keeps_every_part_before_it() {
         let reads = synthetic_reads(60);
         let path = TempPath::new("parts-killed");
-        let options = RecorderOptions {
-            flush_interval_s: 0.05,
-            part_length_s: Some(0.2),
-            ..options()
-        };
-        let mut recorder = Recorder::create(&path.0, options).unwrap();
-        record(&mut recorder, &reads, 7);
-        let summary = recorder.finish().unwrap();
+        let summary = record_in_parts(&path.0, &reads);
         assert!(summary.parts >= 3, "{summary:?}");
         let earlier: usize = (0..summary.parts - 1)
             .map(|index| {
