@@ -24,7 +24,7 @@ use host::camera::{CameraPipeline, PinholeCamera};
 use robot_host::camera_capture::{CaptureError, FrameSource, PixelFormat, RawFrame};
 
 use host::geoimage::{GeoImage, GeographicGeoref, write_geotiff_geographic_rgb8};
-use host::recording::part_path;
+use host::recording::existing_parts;
 use robot_host::LinkCounters;
 use robot_host::config::{DaemonConfig, SlamMethod};
 use robot_host::outputs::write_outputs;
@@ -389,10 +389,8 @@ impl DaemonSetup {
         config.slam.grid_max_range_m = 8.0;
         let recording = out.join("run.mcap");
         // An earlier run's recording in the same folder, and its further parts, make way.
-        for index in 0.. {
-            if fs::remove_file(part_path(&recording, index)).is_err() {
-                break;
-            }
+        for old in std::iter::once(recording.clone()).chain(existing_parts(&recording)) {
+            let _ = fs::remove_file(old);
         }
         config.record.path = Some(recording);
         config.georef.image.clone_from(&image);

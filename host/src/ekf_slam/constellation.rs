@@ -692,8 +692,6 @@ impl Constellation {
     }
 }
 
-/// `a_from_b ⊕ point_in_b`, summed as [`super::frames::transform_point`] sums it, without the
-/// Jacobians.
 /// The `kept` cells of `votes` with the most votes, most first; the key breaks ties, so the
 /// result does not depend on hashing. Taken from the table as it is walked, so that only
 /// those cells are ever copied out of it: the table holds thousands of cells once a park is
@@ -702,7 +700,7 @@ fn most_voted(votes: FastMap<VoteKey, Vote>, kept: usize) -> Vec<(VoteKey, Vote)
     let ranks_before = |a: &(VoteKey, Vote), b: &(VoteKey, Vote)| {
         b.1.count.cmp(&a.1.count).then(a.0.cmp(&b.0)) == std::cmp::Ordering::Less
     };
-    let mut best: Vec<(VoteKey, Vote)> = Vec::with_capacity(kept + 1);
+    let mut best: Vec<(VoteKey, Vote)> = Vec::with_capacity(kept.min(votes.len()) + 1);
     for cell in votes {
         if best.len() == kept && best.last().is_none_or(|last| !ranks_before(&cell, last)) {
             continue;
@@ -714,6 +712,8 @@ fn most_voted(votes: FastMap<VoteKey, Vote>, kept: usize) -> Vec<(VoteKey, Vote)
     best
 }
 
+/// `a_from_b ⊕ point_in_b`, summed as [`super::frames::transform_point`] sums it, without the
+/// Jacobians.
 pub(crate) fn transform(a_from_b: Pose2, point_in_b: [f64; 2]) -> [f64; 2] {
     let (sin, cos) = a_from_b.theta_rad.sin_cos();
     [

@@ -30,4 +30,4 @@ pub use reader::{
     read_recording_from, read_recording_with_camera,
 };
 pub use record_fields::FieldOverrun;
-pub use recorder::{Recorder, RecorderOptions, RecordingSummary, part_path};
+pub use recorder::{Recorder, RecorderOptions, RecordingSummary, existing_parts, part_path};

@@ -94,8 +94,8 @@ pub struct Recording {
     pub camera_images_refused: u64,
     /// Messages per topic, the raw reads included.
     pub message_counts: BTreeMap<String, u64>,
-    /// Whether the file ends before its footer (the recorder did not finish): the records
-    /// above are those of the complete chunks.
+    /// Whether the file, or one of its parts, ends before its footer (the recorder did not
+    /// finish): the records above are those of the complete chunks.
     pub truncated: bool,
 }
 
@@ -131,6 +131,15 @@ fn read_parts(path: &Path, camera_images: bool) -> Result<Recording, RecordingEr
             Err(e) if index > 0 && e.kind() == io::ErrorKind::NotFound => break,
             Err(source) => return Err(RecordingError::Open { path: part, source }),
         };
+        if index > 0
+            && file
+                .metadata()
+                .is_ok_and(|m| m.len() < mcap::MAGIC.len() as u64)
+        {
+            // A part whose recorder was killed before its first bytes reached the disk.
+            records.recording.truncated = true;
+            break;
+        }
         records.read_part(BufReader::new(file), &part)?;
     }
     Ok(records.into_recording())
@@ -432,7 +441,9 @@ mod tests {
     use crate::PoseView;
     use crate::link::LinkReader;
     use crate::recording::topics::{GPS_LOCATION_TOPIC, POSE_LOCATION_TOPIC, POSE_TOPIC};
-    use crate::recording::{Recorder, RecorderOptions, RecordingSummary, board_topic};
+    use crate::recording::{
+        Recorder, RecorderOptions, RecordingSummary, board_topic, existing_parts,
+    };
 
     /// A fresh path in the temporary folder (removed when dropped).
     struct TempPath(PathBuf);
@@ -677,24 +688,32 @@ mod tests {
                 alone.raw_reads.len()
             })
             .sum();
-        // The last part killed right after it was opened: its magic on disk, nothing else.
+        // The last part killed right after it was opened, before (nothing on disk) and after
+        // its magic reached the disk: the parts before it read whole.
         let last = part_path(&path.0, summary.parts - 1);
         let bytes = std::fs::read(&last).unwrap();
-        std::fs::write(&last, &bytes[..8]).unwrap();
-        let recording = read_recording(&path.0).unwrap();
-        assert!(recording.truncated);
-        assert_eq!(recording.raw_reads.len(), earlier);
-        assert!(earlier > 0 && earlier < reads.len());
-        for (read, (t, bytes)) in recording.raw_reads.iter().zip(&reads) {
-            assert_eq!(&read.bytes, bytes);
-            assert!((read.recv_time_s - t).abs() < 1e-9);
+        for kept_bytes in [0, 8] {
+            std::fs::write(&last, &bytes[..kept_bytes]).unwrap();
+            let recording = read_recording(&path.0).unwrap();
+            assert!(recording.truncated);
+            assert_eq!(recording.raw_reads.len(), earlier);
+            assert!(earlier > 0 && earlier < reads.len());
+            for (read, (t, bytes)) in recording.raw_reads.iter().zip(&reads) {
+                assert_eq!(&read.bytes, bytes);
+                assert!((read.recv_time_s - t).abs() < 1e-9);
+            }
         }
 
-        // A part left in the way stops a new recording at its start, not at the split.
+        // A part left in the way, whichever, stops a new recording at its start, not when it
+        // reaches that part.
         std::fs::remove_file(&path.0).unwrap();
+        for index in 0..summary.parts - 1 {
+            let _ = std::fs::remove_file(part_path(&path.0, index));
+        }
+        assert_eq!(existing_parts(&path.0), vec![last.clone()]);
         let refused = Recorder::create(&path.0, RecorderOptions::default()).unwrap_err();
         assert!(
-            matches!(&refused, RecordingError::Create { path: p, .. } if *p == part_path(&path.0, 1)),
+            matches!(&refused, RecordingError::Create { path: p, .. } if *p == last),
             "{refused}"
         );
     }

@@ -105,6 +105,34 @@ pub fn part_path(path: &Path, index: u32) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// The files beside `path` named as its further parts ([`part_path`] of any index from 1),
+/// in no particular order.
+pub fn existing_parts(path: &Path) -> Vec<PathBuf> {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let extension = path.extension().map(|e| e.to_string_lossy());
+    let folder = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return Vec::new();
+    };
+    entries
+        .filter_map(Result::ok)
+        .map(|entry| entry.path())
+        .filter(|candidate| {
+            let name_stem = candidate.file_stem().unwrap_or_default().to_string_lossy();
+            let same_extension = candidate.extension().map(|e| e.to_string_lossy()) == extension;
+            same_extension
+                && name_stem
+                    .strip_prefix(&*stem)
+                    .and_then(|rest| rest.strip_prefix('_'))
+                    .and_then(|index| index.parse::<u32>().ok())
+                    .is_some_and(|index| index >= 1)
+        })
+        .collect()
+}
+
 /// A channel of the current part and the sequence number of its next message (which carries
 /// on from one part to the next).
 #[derive(Debug, Clone, Copy)]
@@ -173,11 +201,11 @@ impl Recorder {
                 )));
             }
         }
-        // A part left from an earlier recording would stop this one when it reaches it.
-        let next_part = part_path(path, 1);
-        if next_part.exists() {
+        // A part left from an earlier recording would stop this one when it reaches it, and
+        // would be read as part of it.
+        if let Some(in_the_way) = existing_parts(path).into_iter().next() {
             return Err(RecordingError::Create {
-                path: next_part,
+                path: in_the_way,
                 source: std::io::Error::new(
                     std::io::ErrorKind::AlreadyExists,
                     "a part of an earlier recording is in the way",
@@ -210,7 +238,7 @@ impl Recorder {
             latest_s: None,
         };
         recorder.ensure_raw_channel()?;
-        recorder.flush()?;
+        recorder.flush_part()?;
         Ok(recorder)
     }
 
@@ -323,10 +351,26 @@ impl Recorder {
 
     /// Ends the current chunk and writes it to the file (and to the storage device with
     /// [`RecorderOptions::sync_on_flush`]). Everything recorded so far then survives a kill.
+    /// Once the current part holds [`RecorderOptions::part_length_s`], it is finished
+    /// instead and the recording goes on in the next one.
     ///
     /// # Errors
-    /// [`RecordingError::Write`] if the file cannot be written.
+    /// [`RecordingError::Write`] if the file cannot be written, [`RecordingError::Create`]
+    /// if the next part cannot be created (the current one is flushed and stays in use).
     pub fn flush(&mut self) -> Result<(), RecordingError> {
+        let part_is_due = match (self.part_length_s, self.part_start_s, self.latest_s) {
+            (Some(length_s), Some(start_s), Some(latest_s)) => latest_s - start_s >= length_s,
+            _ => false,
+        };
+        if part_is_due {
+            self.start_next_part()
+        } else {
+            self.flush_part()
+        }
+    }
+
+    /// Ends the current chunk and writes it to the current part's file.
+    fn flush_part(&mut self) -> Result<(), RecordingError> {
         self.writer
             .flush()
             .map_err(|source| RecordingError::Write {
@@ -353,38 +397,43 @@ impl Recorder {
         Ok(finished)
     }
 
-    /// Finishes the current part and goes on in the next one, its header and raw channel
-    /// on disk.
+    /// Finishes the current part and goes on in the next one. The next part's header and
+    /// raw channel are on disk before the current part is finished, so a kill at any moment
+    /// leaves every part readable.
     fn start_next_part(&mut self) -> Result<(), RecordingError> {
         let next_path = part_path(&self.first_path, self.part + 1);
-        let next = create_part(&next_path, &self.write_options, self.sync_on_flush)?;
+        let next = match create_part(&next_path, &self.write_options, self.sync_on_flush) {
+            Ok(next) => next,
+            Err(error) => {
+                // Keep recording into the current part.
+                self.flush_part()?;
+                return Err(error);
+            }
+        };
         let writer = std::mem::replace(&mut self.writer, next);
         let channels = std::mem::take(&mut self.channels);
-        finish_part(writer, &self.path, &channels, &mut self.finished)?;
-        for (topic, state) in channels {
+        for (topic, state) in &channels {
             self.next_sequences.insert(topic, state.next_sequence);
         }
+        let finished_path = std::mem::replace(&mut self.path, next_path);
         self.part += 1;
-        self.path = next_path;
         self.part_start_s = None;
         self.ensure_raw_channel()?;
-        self.flush()
+        self.flush_part()?;
+        finish_part(writer, &finished_path, &channels, &mut self.finished)
     }
 
-    /// Flushes once `flush_interval_s` of recorded time has passed since the last flush, and
-    /// at such a flush goes on in the next part once the current one holds `part_length_s`.
+    /// Flushes once `flush_interval_s` of recorded time has passed since the last flush (which
+    /// goes on in the next part once the current one holds `part_length_s`).
     fn after_record(&mut self, time_s: f64) -> Result<(), RecordingError> {
         self.latest_s = Some(
             self.latest_s
                 .map_or(time_s, |latest_s| latest_s.max(time_s)),
         );
-        let part_start_s = *self.part_start_s.get_or_insert(time_s);
+        self.part_start_s.get_or_insert(time_s);
         match self.last_flush_s {
             None => self.last_flush_s = Some(time_s),
-            Some(last_s) if time_s - last_s >= self.flush_interval_s => match self.part_length_s {
-                Some(length_s) if time_s - part_start_s >= length_s => self.start_next_part()?,
-                _ => self.flush()?,
-            },
+            Some(last_s) if time_s - last_s >= self.flush_interval_s => self.flush()?,
             Some(_) => {}
         }
         Ok(())

@@ -73,7 +73,8 @@ pub struct ConfigArgs {
     /// Do not serve the live Foxglove stream [web.foxglove_listen absent].
     #[arg(long)]
     pub no_foxglove: bool,
-    /// Record every frame to this MCAP file [record.path].
+    /// Record every frame to this MCAP file, going on in FILE_1.mcap, FILE_2.mcap, … every
+    /// --part-length-s; refused when the file or such a part already exists [record.path].
     #[arg(long)]
     pub record: Option<PathBuf>,
     /// Flush the recording every this many seconds [record.flush_interval_s].
