@@ -179,13 +179,14 @@ impl std::fmt::Debug for Recorder {
 }
 
 impl Recorder {
-    /// Creates the recording at `path`, which must not exist yet (nor its first further part,
-    /// [`part_path`]), and writes its header and the raw channel to disk.
+    /// Creates the recording at `path`, which must not exist yet (nor any file named as one
+    /// of its further parts, [`existing_parts`]), and writes its header and the raw channel
+    /// to disk.
     ///
     /// # Errors
     /// [`RecordingError::InvalidOptions`] for a flush interval or a part length that is not
-    /// a positive number, [`RecordingError::Create`] if the file or its first further part
-    /// exists or the file cannot be created, [`RecordingError::Write`] if the header cannot
+    /// a positive number, [`RecordingError::Create`] if the file or a file named as one of
+    /// its further parts exists or the file cannot be created, [`RecordingError::Write`] if the header cannot
     /// be written.
     pub fn create(path: &Path, options: RecorderOptions) -> Result<Recorder, RecordingError> {
         for (name, value) in [
