@@ -39,6 +39,7 @@ fn daemon_soak_with_every_fault_kind_keeps_its_accounting_memory_and_recording()
         daemon,
         out: out.clone(),
         sample_interval: Duration::from_millis(250),
+        part_length_s: None,
     };
     let report = run(&options, |_| {}).expect("the soak runs");
     let summary = serde_json::to_string_pretty(&report).unwrap_or_default();

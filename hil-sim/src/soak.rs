@@ -32,7 +32,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use host::link::LinkReader;
-use host::recording::read_recording;
+use host::recording::{part_path, read_recording};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robot_host::LinkCounters;
@@ -75,6 +75,11 @@ pub struct SoakOptions {
     /// Wall-clock time between two samples of the daemon's memory (the chain runs many
     /// times faster than the wall clock).
     pub sample_interval: Duration,
+    /// The daemon's `[record] part_length_s` (seconds of the host's clock per part of its
+    /// recording); its default when absent. The soak's simulated hour passes in minutes of
+    /// the host's clock, so at the default it stays in one part; a shorter one has the
+    /// read-back after the kill go through several.
+    pub part_length_s: Option<f64>,
 }
 
 /// Every kind of fault `hil-sim run --faults` knows, spread over `duration_s`: bit errors,
@@ -124,6 +129,8 @@ pub struct RecordingCheck {
     pub error: Option<String>,
     /// Whether it ends before its footer (as a killed daemon leaves it).
     pub truncated: bool,
+    /// Parts it was read from (`run.mcap`, `run_1.mcap`, …).
+    pub parts: usize,
     /// Frames decoded from its raw reads.
     pub frames: u64,
     /// Frames the daemon had counted but the recording does not hold.
@@ -220,6 +227,10 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         loopback_any_port,
         Some(loopback_any_port),
     )?;
+    let mut config = config;
+    if let Some(part_length_s) = options.part_length_s {
+        config.record.part_length_s = part_length_s;
+    }
     let flush_interval_s = config.record.flush_interval_s;
     let recording_path = options.out.join("run.mcap");
     let config_path = options.out.join("robot-host.toml");
@@ -565,6 +576,9 @@ fn post_oversized_goal(web: SocketAddr) -> io::Result<u16> {
 
 /// Reads the recording a killed daemon left and counts the frames its raw reads hold.
 fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCheck {
+    let parts = (0..)
+        .take_while(|&index: &u32| part_path(path, index).is_file())
+        .count();
     match read_recording(path) {
         Ok(recording) => {
             let mut link = LinkReader::new();
@@ -576,6 +590,7 @@ fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCh
             RecordingCheck {
                 error: None,
                 truncated: recording.truncated,
+                parts,
                 frames,
                 frames_missing: daemon_frames.saturating_sub(frames),
                 frames_missing_allowed: allowed,
@@ -584,6 +599,7 @@ fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCh
         Err(e) => RecordingCheck {
             error: Some(e.to_string()),
             truncated: false,
+            parts,
             frames: 0,
             frames_missing: daemon_frames,
             frames_missing_allowed: allowed,

@@ -19,7 +19,8 @@ use super::CliResult;
 /// minute, the threads do not grow, every frame is accounted for and the recording reads
 /// with at most one flush interval's frames missing. Writes OUT/soak.json (the report, also
 /// printed), OUT/soak.tsv (the samples), OUT/robot-host.toml and OUT/robot-host.log (the
-/// daemon's configuration and log), OUT/run.mcap (its recording) and OUT/simulation/.
+/// daemon's configuration and log), OUT/run.mcap (its recording; OUT/run_1.mcap, … for its
+/// further parts) and OUT/simulation/.
 #[derive(Debug, clap::Args)]
 pub struct SoakArgs {
     /// The world: `outdoor` (EKF SLAM with GPS and an aerial image; every fault kind bites)
@@ -41,6 +42,11 @@ pub struct SoakArgs {
     /// `cargo build --release -p robot-host`).
     #[arg(long)]
     daemon: Option<PathBuf>,
+    /// Seconds of the host's clock per part of the daemon's recording (its
+    /// `[record] part_length_s`). Default: the daemon's (600), so the soak's hour, minutes of
+    /// the host's clock, stays in one part; a shorter one exercises the parts.
+    #[arg(long)]
+    part_length_s: Option<f64>,
     /// Where the outputs go.
     #[arg(long, default_value = "soak-out")]
     out: PathBuf,
@@ -61,6 +67,7 @@ pub fn run(args: SoakArgs) -> CliResult {
         daemon,
         out: args.out,
         sample_interval: Duration::from_millis(500),
+        part_length_s: args.part_length_s,
     };
     let duration_s = options.duration_s;
     let report = hil_sim::soak::run(&options, |sample| {
