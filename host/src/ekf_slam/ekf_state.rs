@@ -3,7 +3,9 @@
 //! Layout of the state vector: the robot's `robot_dim` entries first, of which the first three
 //! are always its pose `[x_m, y_m, theta_rad]` in the filter's frame (the rest are motion-model
 //! states such as odometry calibration or velocities), then two entries `[x_m, y_m]` per
-//! landmark. The covariance is kept full and symmetric (checked by `debug_assert!`).
+//! landmark. The covariance is kept full and symmetric: as the whole matrix (the local maps,
+//! whose updates are dense products; symmetry checked by `debug_assert!`) or as its lower
+//! triangle (the global map, [`CovarianceStore`]).
 //!
 //! Prediction touches only the robot rows and columns (O(n)); an update of `m` measurement
 //! rows costs O(n² m) and uses the Joseph form
@@ -12,6 +14,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3};
 
+use super::covariance_store::CovarianceStore;
 use super::jcbb::CovarianceEntries;
 use super::joined_state::{CrossCovariance, JoinedState};
 use crate::geometry::{Pose2, wrap_angle_rad};
@@ -38,11 +41,13 @@ pub enum EkfError {
     MissingBase,
 }
 
-/// Mean and full covariance of the robot-and-landmarks state.
+/// Mean and full covariance of the robot-and-landmarks state, the covariance kept whole
+/// (`DMatrix`, the default: the local maps) or as one triangle
+/// ([`PackedCovariance`](super::PackedCovariance): the global map).
 #[derive(Debug, Clone, PartialEq)]
-pub struct EkfState {
+pub struct EkfState<C = DMatrix<f64>> {
     mean: DVector<f64>,
-    covariance: DMatrix<f64>,
+    covariance: C,
     robot_dim: usize,
 }
 
@@ -60,19 +65,22 @@ macro_rules! debug_assert_symmetric {
     };
 }
 
-impl EkfState {
-    /// A state with the robot only.
+impl<C: CovarianceStore> EkfState<C> {
+    /// A state with the robot only, its covariance kept in `C`.
     ///
     /// # Panics
     /// If the robot has fewer than three entries or the covariance is not square of the same
     /// size (a programming error, not an input error).
-    pub fn new(robot_mean: DVector<f64>, robot_covariance: DMatrix<f64>) -> EkfState {
+    pub fn with_covariance_store(
+        robot_mean: DVector<f64>,
+        robot_covariance: DMatrix<f64>,
+    ) -> EkfState<C> {
         let robot_dim = robot_mean.len();
         assert!(robot_dim >= 3, "the robot state starts with a pose");
         assert_eq!(robot_covariance.shape(), (robot_dim, robot_dim));
         EkfState {
             mean: robot_mean,
-            covariance: robot_covariance,
+            covariance: C::from_square(robot_covariance),
             robot_dim,
         }
     }
@@ -80,16 +88,16 @@ impl EkfState {
     /// A state with `robot_dim` robot entries followed by landmarks, for tests that build
     /// one directly.
     #[cfg(test)]
-    pub(crate) fn from_parts(
+    pub(crate) fn from_parts_with_store(
         mean: DVector<f64>,
         covariance: DMatrix<f64>,
         robot_dim: usize,
-    ) -> EkfState {
+    ) -> EkfState<C> {
         debug_assert!(robot_dim >= 3 && (mean.len() - robot_dim).is_multiple_of(2));
         debug_assert_eq!(covariance.shape(), (mean.len(), mean.len()));
         EkfState {
             mean,
-            covariance,
+            covariance: C::from_square(covariance),
             robot_dim,
         }
     }
@@ -120,7 +128,7 @@ impl EkfState {
     }
 
     /// The covariance.
-    pub fn covariance(&self) -> &DMatrix<f64> {
+    pub fn covariance(&self) -> &C {
         &self.covariance
     }
 
@@ -140,14 +148,12 @@ impl EkfState {
 
     /// Covariance of the robot pose.
     pub fn pose_covariance(&self) -> Matrix3<f64> {
-        self.covariance.fixed_view::<3, 3>(0, 0).into_owned()
+        Matrix3::from_fn(|r, c| self.covariance.entry(r, c))
     }
 
     /// Covariance of the whole robot block.
     pub fn robot_covariance(&self) -> DMatrix<f64> {
-        self.covariance
-            .view((0, 0), (self.robot_dim, self.robot_dim))
-            .into_owned()
+        self.covariance.block(0, self.robot_dim)
     }
 
     /// Position of landmark `i`, metres.
@@ -159,70 +165,7 @@ impl EkfState {
     /// Covariance of landmark `i`'s position.
     pub fn landmark_covariance(&self, i: usize) -> Matrix2<f64> {
         let o = self.landmark_offset(i);
-        self.covariance.fixed_view::<2, 2>(o, o).into_owned()
-    }
-
-    /// Replaces the robot block after a motion step: `robot_mean` is the predicted robot
-    /// state, `f` the motion Jacobian with respect to the robot block and `q` the process
-    /// noise already mapped into robot coordinates. Costs O(n).
-    pub fn predict_robot(&mut self, robot_mean: &DVector<f64>, f: &DMatrix<f64>, q: &DMatrix<f64>) {
-        let r = self.robot_dim;
-        let n = self.dim();
-        debug_assert_eq!(robot_mean.len(), r);
-        self.mean.rows_mut(0, r).copy_from(robot_mean);
-        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
-        let p_rr = self.covariance.view((0, 0), (r, r)).into_owned();
-        let new_rr = f * p_rr * f.transpose() + q;
-        self.covariance.view_mut((0, 0), (r, r)).copy_from(&new_rr);
-        // The robot-landmark block becomes F P_rl, column by column; rows of F that are unit
-        // rows (robot entries the motion leaves alone, such as a calibration) keep theirs.
-        let moved_rows: Vec<usize> = (0..r)
-            .filter(|&i| (0..r).any(|k| f[(i, k)] != if i == k { 1.0 } else { 0.0 }))
-            .collect();
-        let mut column = vec![0.0; moved_rows.len()];
-        for j in r..n {
-            for (value, &i) in column.iter_mut().zip(&moved_rows) {
-                *value = (0..r).map(|k| f[(i, k)] * self.covariance[(k, j)]).sum();
-            }
-            for (&value, &i) in column.iter().zip(&moved_rows) {
-                self.covariance[(i, j)] = value;
-                self.covariance[(j, i)] = value;
-            }
-        }
-        debug_assert_symmetric!(self.covariance);
-    }
-
-    /// Appends a landmark at `position_m`, initialised from the robot pose: `d_pose` is the
-    /// Jacobian of the position with respect to the pose (the first three state entries),
-    /// and `noise` the covariance the measurement adds (already mapped into the plane).
-    /// Returns the new landmark's index.
-    pub fn add_landmark(
-        &mut self,
-        position_m: [f64; 2],
-        d_pose: &Matrix2x3<f64>,
-        noise: &Matrix2<f64>,
-    ) -> usize {
-        let n = self.dim();
-        let p_pose_all = self.covariance.rows(0, 3).into_owned();
-        let cross = d_pose * &p_pose_all; // 2 × n
-        let p_pp = self.pose_covariance();
-        let own = d_pose * p_pp * d_pose.transpose() + noise;
-
-        let mut covariance = DMatrix::zeros(n + 2, n + 2);
-        covariance
-            .view_mut((0, 0), (n, n))
-            .copy_from(&self.covariance);
-        covariance.view_mut((n, 0), (2, n)).copy_from(&cross);
-        covariance
-            .view_mut((0, n), (n, 2))
-            .copy_from(&cross.transpose());
-        covariance.view_mut((n, n), (2, 2)).copy_from(&own);
-        self.covariance = covariance;
-        self.mean = self.mean.clone().insert_rows(n, 2, 0.0);
-        self.mean[n] = position_m[0];
-        self.mean[n + 1] = position_m[1];
-        debug_assert_symmetric!(self.covariance);
-        self.landmark_count() - 1
+        Matrix2::from_fn(|r, c| self.covariance.entry(o + r, o + c))
     }
 
     /// Replaces the pose (entries 0..3) by the first three of `new` and appends the rest as
@@ -245,33 +188,20 @@ impl EkfState {
         debug_assert_eq!(own.shape(), (k, k));
         let (landmarks, appended) = (n - 3, k - 3);
         let dim = n + appended;
-        // Grown in place (the old landmarks keep their place and their entries; the buffer is
-        // reallocated, not copied into fresh zeroed memory): every entry of the old pose's rows
-        // and columns and of the new rows and columns is written below.
-        let mut data: Vec<f64> = std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0))
-            .data
-            .into();
-        if data.capacity() < dim * dim {
-            // Room for a quarter more rows and columns, so the joins that follow grow the
-            // matrix without reallocating (and copying) it each time.
-            let planned = dim + dim / 4;
-            data.reserve_exact(planned * planned - data.len());
-        }
-        // By value: `resize_mut` would clone the matrix first.
-        let mut covariance = DMatrix::from_vec(n, n, data).resize(dim, dim, 0.0);
+        // Grown in place (the old landmarks keep their place and their entries): every entry
+        // of the old pose's rows and columns and of the new rows and columns is written below.
+        self.covariance.grow(dim);
         // The new pose and the new landmarks with the old landmarks.
         let new_rows = |index: usize| if index < 3 { index } else { n + index - 3 };
         for c in 3..n {
             for r in 0..k {
-                let value = cross.entry(r, c);
-                covariance[(new_rows(r), c)] = value;
-                covariance[(c, new_rows(r))] = value;
+                self.covariance.set(new_rows(r), c, cross.entry(r, c));
             }
         }
-        // The new entries among themselves.
+        // The new entries among themselves (the lower triangle: `own` is symmetric).
         for c in 0..k {
-            for r in 0..k {
-                covariance[(new_rows(r), new_rows(c))] = own[(r, c)];
+            for r in c..k {
+                self.covariance.set(new_rows(r), new_rows(c), own[(r, c)]);
             }
         }
         let mut mean = DVector::zeros(dim);
@@ -280,64 +210,14 @@ impl EkfState {
             .copy_from(&self.mean.rows(3, landmarks));
         mean.rows_mut(n, appended).copy_from(&new.rows(3, appended));
         self.mean = mean;
-        self.covariance = covariance;
-        debug_assert_symmetric!(self.covariance);
-    }
-
-    /// Appends `mean.len()` entries to the robot block (before the landmarks), independent of
-    /// everything else, with covariance `covariance`. Returns the offset of the first one.
-    pub(crate) fn extend_robot(&mut self, mean: &DVector<f64>, covariance: &DMatrix<f64>) -> usize {
-        let (n, r, e) = (self.dim(), self.robot_dim, mean.len());
-        let landmarks = n - r;
-        let mut full_mean = DVector::zeros(n + e);
-        full_mean.rows_mut(0, r).copy_from(&self.mean.rows(0, r));
-        full_mean.rows_mut(r, e).copy_from(mean);
-        full_mean
-            .rows_mut(r + e, landmarks)
-            .copy_from(&self.mean.rows(r, landmarks));
-        let mut full = DMatrix::zeros(n + e, n + e);
-        let moved = |index: usize| if index < r { index } else { index + e };
-        for c in 0..n {
-            for row in 0..n {
-                full[(moved(row), moved(c))] = self.covariance[(row, c)];
-            }
-        }
-        full.view_mut((r, r), (e, e)).copy_from(covariance);
-        self.mean = full_mean;
-        self.covariance = full;
-        self.robot_dim = r + e;
-        r
-    }
-
-    /// Re-expresses three entries holding a pose (`offset..offset + 3`) through
-    /// `new_from_old`: the mean is composed, the covariance rotated.
-    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: Pose2) {
-        let old = Pose2 {
-            x_m: self.mean[offset],
-            y_m: self.mean[offset + 1],
-            theta_rad: self.mean[offset + 2],
-        };
-        let (new, _, rotation) = super::frames::compose_pose(new_from_old, old);
-        self.mean
-            .rows_mut(offset, 3)
-            .copy_from_slice(&[new.x_m, new.y_m, new.theta_rad]);
-        let n = self.dim();
-        let rows = rotation * self.covariance.view((offset, 0), (3, n));
-        self.covariance
-            .view_mut((offset, 0), (3, n))
-            .copy_from(&rows);
-        let columns = self.covariance.view((0, offset), (n, 3)) * rotation.transpose();
-        self.covariance
-            .view_mut((0, offset), (n, 3))
-            .copy_from(&columns);
-        symmetrise(&mut self.covariance);
     }
 
     /// Re-expresses the whole state in another frame (`new_from_old`, rigid): the pose
     /// (entries 0..3, the only robot entries) is composed and every landmark transformed.
-    /// The Jacobian is a rotation of each `(x, y)` pair, so `J P Jᵀ` is applied in place, a
-    /// pair of rows and a pair of columns at a time: O(n²) time and no memory beyond the
-    /// state's, where the product of dense `n × n` matrices costs O(n³) and three of them.
+    /// The Jacobian is block-diagonal, a rotation of each `(x, y)` pair and one for the
+    /// heading, so `J P Jᵀ` is applied in place, block by block of the lower triangle
+    /// (`R_a P_ab R_bᵀ`): O(n²) time and no memory beyond the state's, where the product of
+    /// dense `n × n` matrices costs O(n³) and three of them.
     pub(crate) fn transform_rigid(&mut self, new_from_old: Pose2) {
         debug_assert_eq!(self.robot_dim, 3);
         let (pose, _, _) = super::frames::compose_pose(new_from_old, self.pose());
@@ -350,25 +230,38 @@ impl EkfState {
             self.mean.rows_mut(o, 2).copy_from_slice(&point);
         }
         let (sin, cos) = new_from_old.theta_rad.sin_cos();
-        let n = self.dim();
-        // The pose's position, then each landmark: the pairs the rotation acts on (the
-        // heading's entry is left as it is).
-        let pairs = std::iter::once(0).chain((0..self.landmark_count()).map(|i| 3 + 2 * i));
-        for o in pairs.clone() {
-            for c in 0..n {
-                let (x, y) = (self.covariance[(o, c)], self.covariance[(o + 1, c)]);
-                self.covariance[(o, c)] = cos * x - sin * y;
-                self.covariance[(o + 1, c)] = sin * x + cos * y;
+        // The blocks (first entry, rotated): the pose's position, its heading, each landmark.
+        let blocks: Vec<(usize, bool)> = [(0, true), (2, false)]
+            .into_iter()
+            .chain((0..self.landmark_count()).map(|i| (3 + 2 * i, true)))
+            .collect();
+        let rotation = Matrix2::new(cos, -sin, sin, cos);
+        for (a, &(row, row_rotated)) in blocks.iter().enumerate() {
+            for &(column, column_rotated) in &blocks[..=a] {
+                let rows = if row_rotated { 2 } else { 1 };
+                let columns = if column_rotated { 2 } else { 1 };
+                let mut block = Matrix2::from_fn(|r, c| {
+                    if r < rows && c < columns {
+                        self.covariance.entry(row + r, column + c)
+                    } else {
+                        0.0
+                    }
+                });
+                if row_rotated {
+                    block = rotation * block;
+                }
+                if column_rotated {
+                    block *= rotation.transpose();
+                }
+                for r in 0..rows {
+                    // A diagonal block's upper entries are its lower ones' mirror.
+                    let last_column = if row == column { r + 1 } else { columns };
+                    for c in 0..last_column {
+                        self.covariance.set(row + r, column + c, block[(r, c)]);
+                    }
+                }
             }
         }
-        for o in pairs {
-            for r in 0..n {
-                let (x, y) = (self.covariance[(r, o)], self.covariance[(r, o + 1)]);
-                self.covariance[(r, o)] = cos * x - sin * y;
-                self.covariance[(r, o + 1)] = sin * x + cos * y;
-            }
-        }
-        symmetrise(&mut self.covariance);
     }
 
     /// Replaces the marginal of the pose (entries 0..3) by `pose` / `pose_covariance` and
@@ -391,7 +284,7 @@ impl EkfState {
             .cholesky()
             .ok_or(EkfError::CovarianceNotPositiveDefinite)?;
         // Gᵀ = P_b⁻¹ P_{b·} (3 × n).
-        let g_t = cholesky.solve(&self.covariance.rows(0, 3).into_owned());
+        let g_t = cholesky.solve(&self.covariance.rows(0, 3));
         let mut delta = nalgebra::Vector3::new(
             pose.x_m - self.mean[0],
             pose.y_m - self.mean[1],
@@ -402,14 +295,23 @@ impl EkfState {
         self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
         let change = pose_covariance - self.pose_covariance();
         let a = g_t.transpose() * change; // n × 3
-        self.covariance.gemm(1.0, &a, &g_t, 1.0);
-        symmetrise(&mut self.covariance);
+        // P += A Gᵀ, symmetric: each entry of the lower triangle once.
+        for i in 0..n {
+            for j in 0..=i {
+                let mut sum = a[(i, 0)] * g_t[(0, j)];
+                for t in 1..3 {
+                    sum += a[(i, t)] * g_t[(t, j)];
+                }
+                let value = self.covariance.entry(i, j) + sum;
+                self.covariance.set(i, j, value);
+            }
+        }
         // The pose block is set exactly (rounding aside).
-        self.covariance
-            .view_mut((0, 0), (3, 3))
-            .copy_from(pose_covariance);
-        debug_assert_eq!(self.dim(), n);
-        debug_assert_symmetric!(self.covariance);
+        for i in 0..3 {
+            for j in 0..=i {
+                self.covariance.set(i, j, pose_covariance[(i, j)]);
+            }
+        }
         Ok(())
     }
 
@@ -454,14 +356,9 @@ impl EkfState {
         let mut mean = self.mean.select_rows(keep.iter());
         mean.gemv(1.0, &w, &whitened_innovation, 1.0);
         mean[THETA] = wrap_angle_rad(mean[THETA]);
-        let mut covariance = gather(
-            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
-            &keep,
-        );
-        subtract_outer_product(&mut covariance, &w);
+        self.covariance.gather(&keep);
+        self.covariance.subtract_outer_product(&w);
         self.mean = mean;
-        self.covariance = covariance;
-        debug_assert_symmetric!(self.covariance);
         Ok(())
     }
 
@@ -537,8 +434,7 @@ impl EkfState {
         );
         debug_assert_eq!(self.dim(), mean.len());
         self.mean = mean;
-        subtract_outer_product(&mut self.covariance, &w);
-        debug_assert_symmetric!(self.covariance);
+        self.covariance.subtract_outer_product(&w);
         Ok(())
     }
 
@@ -568,10 +464,142 @@ impl EkfState {
         }
         let keep = self.entries_without(indices);
         self.mean = self.mean.select_rows(keep.iter());
-        self.covariance = gather(
-            std::mem::replace(&mut self.covariance, DMatrix::zeros(0, 0)),
-            &keep,
-        );
+        self.covariance.gather(&keep);
+    }
+}
+
+/// What only the whole-matrix covariance does: the local maps' prediction and updates,
+/// dense products of their small state.
+impl EkfState {
+    /// A state with the robot only, its covariance kept whole.
+    ///
+    /// # Panics
+    /// If the robot has fewer than three entries or the covariance is not square of the same
+    /// size (a programming error, not an input error).
+    pub fn new(robot_mean: DVector<f64>, robot_covariance: DMatrix<f64>) -> EkfState {
+        EkfState::with_covariance_store(robot_mean, robot_covariance)
+    }
+
+    /// [`EkfState::from_parts_with_store`], the covariance kept whole.
+    #[cfg(test)]
+    pub(crate) fn from_parts(
+        mean: DVector<f64>,
+        covariance: DMatrix<f64>,
+        robot_dim: usize,
+    ) -> EkfState {
+        EkfState::from_parts_with_store(mean, covariance, robot_dim)
+    }
+
+    /// Replaces the robot block after a motion step: `robot_mean` is the predicted robot
+    /// state, `f` the motion Jacobian with respect to the robot block and `q` the process
+    /// noise already mapped into robot coordinates. Costs O(n).
+    pub fn predict_robot(&mut self, robot_mean: &DVector<f64>, f: &DMatrix<f64>, q: &DMatrix<f64>) {
+        let r = self.robot_dim;
+        let n = self.dim();
+        debug_assert_eq!(robot_mean.len(), r);
+        self.mean.rows_mut(0, r).copy_from(robot_mean);
+        self.mean[THETA] = wrap_angle_rad(self.mean[THETA]);
+        let p_rr = self.covariance.view((0, 0), (r, r)).into_owned();
+        let new_rr = f * p_rr * f.transpose() + q;
+        self.covariance.view_mut((0, 0), (r, r)).copy_from(&new_rr);
+        // The robot-landmark block becomes F P_rl, column by column; rows of F that are unit
+        // rows (robot entries the motion leaves alone, such as a calibration) keep theirs.
+        let moved_rows: Vec<usize> = (0..r)
+            .filter(|&i| (0..r).any(|k| f[(i, k)] != if i == k { 1.0 } else { 0.0 }))
+            .collect();
+        let mut column = vec![0.0; moved_rows.len()];
+        for j in r..n {
+            for (value, &i) in column.iter_mut().zip(&moved_rows) {
+                *value = (0..r).map(|k| f[(i, k)] * self.covariance[(k, j)]).sum();
+            }
+            for (&value, &i) in column.iter().zip(&moved_rows) {
+                self.covariance[(i, j)] = value;
+                self.covariance[(j, i)] = value;
+            }
+        }
+        debug_assert_symmetric!(self.covariance);
+    }
+
+    /// Appends a landmark at `position_m`, initialised from the robot pose: `d_pose` is the
+    /// Jacobian of the position with respect to the pose (the first three state entries),
+    /// and `noise` the covariance the measurement adds (already mapped into the plane).
+    /// Returns the new landmark's index.
+    pub fn add_landmark(
+        &mut self,
+        position_m: [f64; 2],
+        d_pose: &Matrix2x3<f64>,
+        noise: &Matrix2<f64>,
+    ) -> usize {
+        let n = self.dim();
+        let p_pose_all = self.covariance.rows(0, 3).into_owned();
+        let cross = d_pose * &p_pose_all; // 2 × n
+        let p_pp = self.pose_covariance();
+        let own = d_pose * p_pp * d_pose.transpose() + noise;
+
+        let mut covariance = DMatrix::zeros(n + 2, n + 2);
+        covariance
+            .view_mut((0, 0), (n, n))
+            .copy_from(&self.covariance);
+        covariance.view_mut((n, 0), (2, n)).copy_from(&cross);
+        covariance
+            .view_mut((0, n), (n, 2))
+            .copy_from(&cross.transpose());
+        covariance.view_mut((n, n), (2, 2)).copy_from(&own);
+        self.covariance = covariance;
+        self.mean = self.mean.clone().insert_rows(n, 2, 0.0);
+        self.mean[n] = position_m[0];
+        self.mean[n + 1] = position_m[1];
+        debug_assert_symmetric!(self.covariance);
+        self.landmark_count() - 1
+    }
+
+    /// Appends `mean.len()` entries to the robot block (before the landmarks), independent of
+    /// everything else, with covariance `covariance`. Returns the offset of the first one.
+    pub(crate) fn extend_robot(&mut self, mean: &DVector<f64>, covariance: &DMatrix<f64>) -> usize {
+        let (n, r, e) = (self.dim(), self.robot_dim, mean.len());
+        let landmarks = n - r;
+        let mut full_mean = DVector::zeros(n + e);
+        full_mean.rows_mut(0, r).copy_from(&self.mean.rows(0, r));
+        full_mean.rows_mut(r, e).copy_from(mean);
+        full_mean
+            .rows_mut(r + e, landmarks)
+            .copy_from(&self.mean.rows(r, landmarks));
+        let mut full = DMatrix::zeros(n + e, n + e);
+        let moved = |index: usize| if index < r { index } else { index + e };
+        for c in 0..n {
+            for row in 0..n {
+                full[(moved(row), moved(c))] = self.covariance[(row, c)];
+            }
+        }
+        full.view_mut((r, r), (e, e)).copy_from(covariance);
+        self.mean = full_mean;
+        self.covariance = full;
+        self.robot_dim = r + e;
+        r
+    }
+
+    /// Re-expresses three entries holding a pose (`offset..offset + 3`) through
+    /// `new_from_old`: the mean is composed, the covariance rotated.
+    pub(crate) fn transform_pose_entries(&mut self, offset: usize, new_from_old: Pose2) {
+        let old = Pose2 {
+            x_m: self.mean[offset],
+            y_m: self.mean[offset + 1],
+            theta_rad: self.mean[offset + 2],
+        };
+        let (new, _, rotation) = super::frames::compose_pose(new_from_old, old);
+        self.mean
+            .rows_mut(offset, 3)
+            .copy_from_slice(&[new.x_m, new.y_m, new.theta_rad]);
+        let n = self.dim();
+        let rows = rotation * self.covariance.view((offset, 0), (3, n));
+        self.covariance
+            .view_mut((offset, 0), (3, n))
+            .copy_from(&rows);
+        let columns = self.covariance.view((0, offset), (n, 3)) * rotation.transpose();
+        self.covariance
+            .view_mut((0, offset), (n, 3))
+            .copy_from(&columns);
+        symmetrise(&mut self.covariance);
     }
 
     /// The innovation covariance `H P Hᵀ + R`.
@@ -651,7 +679,7 @@ impl EkfState {
 ///
 /// `W` is formed in one buffer, `P Hᵀ` first and then the triangular solve `W Lᵀ = P Hᵀ`
 /// column by column, and only for the kept rows, so an update's working memory is `W` (kept ×
-/// `m`) and one band of `Wᵀ` ([`subtract_outer_product`]).
+/// `m`) and one band of `Wᵀ` ([`CovarianceStore::subtract_outer_product`]).
 fn fusion_factors(
     p: &(impl CovarianceEntries + ?Sized),
     mean: impl Fn(usize) -> f64,
@@ -704,47 +732,6 @@ fn fusion_factors(
     Ok((w, whitened_innovation))
 }
 
-/// `P −= W Wᵀ` for a square `p` and a `W` of as many rows, a band of columns at a time, so
-/// that only a band of `Wᵀ` is formed at once (the whole of it is as large as `W`, and a
-/// join's memory peaks while it is held). `gemm` with an explicit transpose uses its blocked
-/// kernel (`gemm_tr` would take dot products column by column); every entry sums its `k`
-/// products in the same order whatever the bands, so entries (i, j) and (j, i) stay equal
-/// to the bit. The bands are near-equal and at least `MIN_BAND` wide, so none is narrow
-/// enough for nalgebra to leave the blocked kernel.
-fn subtract_outer_product(p: &mut DMatrix<f64>, w: &DMatrix<f64>) {
-    const MAX_BAND: usize = 128;
-    const MIN_BAND: usize = 64;
-    let n = p.ncols();
-    debug_assert_eq!(w.nrows(), n);
-    let bands = n.div_ceil(MAX_BAND).min((n / MIN_BAND).max(1));
-    let mut first = 0;
-    for band in 0..bands {
-        let width = (n - first) / (bands - band);
-        let band_of_w_t = w.rows(first, width).transpose();
-        p.columns_mut(first, width).gemm(-1.0, w, &band_of_w_t, 1.0);
-        first += width;
-    }
-    debug_assert_eq!(first, n);
-}
-
-/// The rows and columns `keep` (increasing) of the square `matrix`, compacted in its own
-/// buffer in one pass: selecting rows and then columns would copy twice, into fresh memory.
-fn gather(matrix: DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
-    let n = matrix.nrows();
-    let k = keep.len();
-    debug_assert!(keep.windows(2).all(|w| w[0] < w[1]) && keep.last().is_none_or(|&l| l < n));
-    let mut data: Vec<f64> = matrix.data.into();
-    // Entry (to_row, to_col) goes to to_col·k + to_row ≤ from_col·n + from_row, where it
-    // comes from: walking forward never overwrites an entry still to be read.
-    for (to_col, &from_col) in keep.iter().enumerate() {
-        for (to_row, &from_row) in keep.iter().enumerate() {
-            data[to_col * k + to_row] = data[from_col * n + from_row];
-        }
-    }
-    data.truncate(k * k);
-    DMatrix::from_vec(k, k, data)
-}
-
 /// Replaces a square matrix by the mean of itself and its transpose, tile by tile so both
 /// halves are read from cache.
 fn symmetrise(matrix: &mut DMatrix<f64>) {
@@ -766,6 +753,7 @@ fn symmetrise(matrix: &mut DMatrix<f64>) {
 
 #[cfg(test)]
 mod tests {
+    use super::super::packed_covariance::PackedCovariance;
     use super::*;
 
     fn robot_only() -> EkfState {
@@ -974,19 +962,6 @@ mod tests {
     }
 
     #[test]
-    fn the_outer_product_by_bands_is_the_whole_product_to_the_bit() {
-        for (n, m) in [(5, 4), (70, 6), (130, 20), (301, 34)] {
-            let w = DMatrix::from_fn(n, m, |r, c| ((r * 31 + c * 17) % 23) as f64 / 7.0 - 1.3);
-            let p = DMatrix::from_fn(n, n, |r, c| ((r + c) % 13) as f64 * 0.1);
-            let mut whole = p.clone();
-            whole.gemm(-1.0, &w, &w.transpose(), 1.0);
-            let mut banded = p;
-            subtract_outer_product(&mut banded, &w);
-            assert_eq!(banded, whole, "{n} × {m}");
-        }
-    }
-
-    #[test]
     fn joining_with_fusion_gives_the_append_then_the_merge_to_the_bit() {
         // Four old landmarks; a new pose and three new landmarks, the first and the third
         // fused into old landmarks 2 and 0.
@@ -1034,6 +1009,64 @@ mod tests {
         let mut plain = state;
         plain.replace_pose_and_append(&new, &cross, &own);
         assert_eq!(appended, plain);
+    }
+
+    #[test]
+    fn a_state_as_one_triangle_follows_the_whole_matrix_through_joins() {
+        let whole = correlated_state();
+        let mut packed: EkfState<PackedCovariance> = EkfState::from_parts_with_store(
+            whole.mean().clone(),
+            whole.covariance().clone(),
+            whole.robot_dim(),
+        );
+        let mut whole = whole;
+        let agree = |packed: &EkfState<PackedCovariance>, whole: &EkfState| {
+            assert_eq!(packed.dim(), whole.dim());
+            assert!((packed.mean() - whole.mean()).amax() < 1e-12);
+            let difference = packed.covariance().to_dense() - whole.covariance();
+            assert!(difference.amax() < 1e-12, "{difference}");
+        };
+        let new_from_old = Pose2 {
+            x_m: 1.5,
+            y_m: -0.5,
+            theta_rad: -0.7,
+        };
+        packed.transform_rigid(new_from_old);
+        whole.transform_rigid(new_from_old);
+        agree(&packed, &whole);
+        let pose_covariance = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.05, 0.04, 0.01));
+        let pose = Pose2 {
+            x_m: 0.3,
+            ..whole.pose()
+        };
+        packed.set_pose_marginal(pose, &pose_covariance).unwrap();
+        whole.set_pose_marginal(pose, &pose_covariance).unwrap();
+        agree(&packed, &whole);
+        // Two joins of a new pose and three new landmarks: two of them fused into old ones,
+        // then none.
+        for pairs in [&[(0, 2), (2, 0)][..], &[]] {
+            let (n, k) = (whole.dim(), 9);
+            let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
+            let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
+            let cross = CrossCovariance::new(
+                DMatrix::from_fn(k, 3, |r, c| 0.1 * ((r * 3 + c) % 5) as f64),
+                DMatrix::from_fn(3, n, |r, c| 0.02 * ((r + 2 * c) % 7) as f64),
+            );
+            let new = DVector::from_fn(k, |r, _| 1.0 + 0.3 * r as f64);
+            packed
+                .replace_pose_append_and_fuse(&new, &cross, &own, pairs, 1e-3)
+                .unwrap();
+            whole
+                .replace_pose_append_and_fuse(&new, &cross, &own, pairs, 1e-3)
+                .unwrap();
+            agree(&packed, &whole);
+        }
+        packed.merge_landmarks(&[(4, 1)], 1e-3).unwrap();
+        whole.merge_landmarks(&[(4, 1)], 1e-3).unwrap();
+        agree(&packed, &whole);
+        packed.remove_landmarks(&[0, 2]);
+        whole.remove_landmarks(&[0, 2]);
+        agree(&packed, &whole);
     }
 
     #[test]

@@ -22,6 +22,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3};
 
+use super::covariance_store::CovarianceStore;
 use super::ekf_state::{EkfError, EkfState};
 use super::frames::{compose_pose, transform_point};
 use super::jcbb::{
@@ -31,6 +32,7 @@ use super::joined_state::{CrossCovariance, JoinedState};
 use super::landmark_info::LandmarkInfo;
 use super::local_map::LocalMap;
 use super::options::AssociationOptions;
+use super::packed_covariance::PackedCovariance;
 use crate::geometry::Pose2;
 
 /// Noise of the equality constraint between two records of one landmark, metres (tiny: it
@@ -70,7 +72,8 @@ pub struct JoinReport {
 /// The joined map. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GlobalMap {
-    state: EkfState,
+    /// The map's state; its covariance, the method's largest structure, as one triangle.
+    state: EkfState<PackedCovariance>,
     info: Vec<LandmarkInfo>,
     /// The local map (index into `bases_in_map`) each landmark was first mapped in.
     origin_map: Vec<usize>,
@@ -95,7 +98,7 @@ impl GlobalMap {
     /// `pose_covariance`.
     pub fn new(pose_in_map: Pose2, pose_covariance: Matrix3<f64>) -> GlobalMap {
         GlobalMap {
-            state: EkfState::new(
+            state: EkfState::with_covariance_store(
                 DVector::from_row_slice(&[pose_in_map.x_m, pose_in_map.y_m, pose_in_map.theta_rad]),
                 DMatrix::from_column_slice(3, 3, pose_covariance.as_slice()),
             ),
@@ -142,7 +145,7 @@ impl GlobalMap {
     }
 
     /// The joined state: robot pose (the current base frame), then landmarks.
-    pub fn state(&self) -> &EkfState {
+    pub fn state(&self) -> &EkfState<PackedCovariance> {
         &self.state
     }
 
@@ -233,8 +236,8 @@ impl GlobalMap {
                 .view_mut((row, local_robot_dim + 2 * i), (2, 2))
                 .copy_from(&d_l);
         }
-        let p_base_all = self.state.covariance().rows(0, 3).into_owned();
-        let p_base = self.state.covariance().view((0, 0), (3, 3)).into_owned();
+        let p_base_all = self.state.covariance().rows(0, 3);
+        let p_base = self.state.covariance().block(0, 3);
         let (cross, own) = match base_offset {
             Some(offset) => {
                 // The base is a local entry: J covers it, and the new entries see the global
@@ -437,7 +440,7 @@ impl GlobalMap {
     /// indices in the joined state.
     fn pair(
         &self,
-        joined: &JoinedState<'_>,
+        joined: &JoinedState<'_, PackedCovariance>,
         new_info: &[LandmarkInfo],
         options: &AssociationOptions,
     ) -> Vec<(usize, usize)> {
@@ -559,7 +562,7 @@ impl GlobalMap {
 /// look-alike place found by a well-localised robot contradicts the map by orders of
 /// magnitude more and is backed by few.
 fn place_is_credible(
-    joined: &JoinedState<'_>,
+    joined: &JoinedState<'_, PackedCovariance>,
     pairs: &[(usize, usize)],
     options: &AssociationOptions,
 ) -> bool {

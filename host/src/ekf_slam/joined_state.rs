@@ -11,6 +11,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::covariance_store::CovarianceStore;
 use super::ekf_state::EkfState;
 use super::jcbb::CovarianceEntries;
 
@@ -69,9 +70,9 @@ impl CrossCovariance {
 /// the state (`cross`, rows: new entries; its first three columns, the old pose's, are
 /// never read) and among themselves (`own`), as `EkfState::replace_pose_and_append` takes
 /// them.
-#[derive(Debug, Clone, Copy)]
-pub struct JoinedState<'a> {
-    state: &'a EkfState,
+#[derive(Debug)]
+pub struct JoinedState<'a, C = DMatrix<f64>> {
+    state: &'a EkfState<C>,
     new: &'a DVector<f64>,
     cross: &'a CrossCovariance,
     own: &'a DMatrix<f64>,
@@ -86,14 +87,14 @@ enum Source {
     New(usize),
 }
 
-impl<'a> JoinedState<'a> {
+impl<'a, C: CovarianceStore> JoinedState<'a, C> {
     /// The view; see the type's documentation for the arguments.
     pub fn new(
-        state: &'a EkfState,
+        state: &'a EkfState<C>,
         new: &'a DVector<f64>,
         cross: &'a CrossCovariance,
         own: &'a DMatrix<f64>,
-    ) -> JoinedState<'a> {
+    ) -> JoinedState<'a, C> {
         debug_assert_eq!(state.robot_dim(), 3);
         debug_assert!(new.len() >= 3 && (new.len() - 3).is_multiple_of(2));
         debug_assert_eq!((cross.nrows(), cross.ncols()), (new.len(), state.dim()));
@@ -147,10 +148,10 @@ impl<'a> JoinedState<'a> {
     }
 }
 
-impl CovarianceEntries for JoinedState<'_> {
+impl<C: CovarianceStore> CovarianceEntries for JoinedState<'_, C> {
     fn entry(&self, row: usize, column: usize) -> f64 {
         match (self.source(row), self.source(column)) {
-            (Source::Map(r), Source::Map(c)) => self.state.covariance()[(r, c)],
+            (Source::Map(r), Source::Map(c)) => self.state.covariance().entry(r, c),
             (Source::New(r), Source::New(c)) => self.own[(r, c)],
             (Source::New(r), Source::Map(c)) => self.cross.entry(r, c),
             (Source::Map(r), Source::New(c)) => self.cross.entry(c, r),

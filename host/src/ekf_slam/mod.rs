@@ -1,7 +1,8 @@
 //! Method 1: EKF SLAM over the robot and point landmarks, with size-limited local maps joined
 //! into one global map.
 //!
-//! * [`EkfState`]: mean and full covariance, Joseph-form updates.
+//! * [`EkfState`]: mean and full covariance, Joseph-form updates; the covariance kept whole
+//!   or as one triangle ([`CovarianceStore`], [`PackedCovariance`]).
 //! * Motion models ([`MotionModel`]): [`AckermannModel`] (car odometry, with online
 //!   calibration of speed scale and steering offset), [`DifferentialDriveModel`] and
 //!   [`ConstantVelocityModel`] (no odometry).
@@ -22,6 +23,7 @@
 pub mod ackermann;
 pub mod constant_velocity;
 pub mod constellation;
+pub mod covariance_store;
 pub mod differential_drive;
 mod ekf_pipeline;
 pub mod ekf_state;
@@ -38,6 +40,7 @@ pub mod local_map_anchors;
 pub mod map_smoother;
 pub mod motion_model;
 pub mod options;
+pub mod packed_covariance;
 pub mod pose_history;
 pub mod range_bearing;
 pub mod submap_slam;
@@ -45,6 +48,7 @@ pub mod submap_slam;
 pub use ackermann::{AckermannGeometry, AckermannInput, AckermannModel};
 pub use constant_velocity::ConstantVelocityModel;
 pub use constellation::{Constellation, ConstellationOptions, PlaceMatch};
+pub use covariance_store::CovarianceStore;
 pub use differential_drive::{DifferentialDriveInput, DifferentialDriveModel};
 pub use ekf_pipeline::{EkfPipeline, EkfPipelineOptions, EkfPipelineStats, StampedPose};
 pub use ekf_state::{EkfError, EkfState};
@@ -59,6 +63,7 @@ pub use local_map_anchors::LocalMapAnchors;
 pub use map_smoother::{MapSmoother, MapSmootherOptions, MapSmootherStats};
 pub use motion_model::{MotionModel, MotionPrediction};
 pub use options::{AssociationOptions, SubmapSlamOptions};
+pub use packed_covariance::PackedCovariance;
 pub use pose_history::{PoseHistory, PoseHistoryOptions};
 pub use range_bearing::{LandmarkObservation, PredictedObservation, RangeBearingModel};
 pub use submap_slam::{MappedLandmark, SubmapSlam, SubmapSlamStats};
