@@ -108,8 +108,6 @@ pub fn part_path(path: &Path, index: u32) -> PathBuf {
 /// The files beside `path` named as its further parts ([`part_path`] of any index from 1),
 /// in no particular order.
 pub fn existing_parts(path: &Path) -> Vec<PathBuf> {
-    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-    let extension = path.extension().map(|e| e.to_string_lossy());
     let folder = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
@@ -117,19 +115,19 @@ pub fn existing_parts(path: &Path) -> Vec<PathBuf> {
     let Ok(entries) = std::fs::read_dir(folder) else {
         return Vec::new();
     };
+    // A name is a part's when `part_path` gives it back from the index after its last `_`.
+    let is_part = |candidate: &Path| {
+        let name = candidate.file_stem().unwrap_or_default().to_string_lossy();
+        name.rsplit_once('_')
+            .and_then(|(_, index)| index.parse::<u32>().ok())
+            .is_some_and(|index| {
+                index >= 1 && part_path(path, index).file_name() == candidate.file_name()
+            })
+    };
     entries
         .filter_map(Result::ok)
         .map(|entry| entry.path())
-        .filter(|candidate| {
-            let name_stem = candidate.file_stem().unwrap_or_default().to_string_lossy();
-            let same_extension = candidate.extension().map(|e| e.to_string_lossy()) == extension;
-            same_extension
-                && name_stem
-                    .strip_prefix(&*stem)
-                    .and_then(|rest| rest.strip_prefix('_'))
-                    .and_then(|index| index.parse::<u32>().ok())
-                    .is_some_and(|index| index >= 1)
-        })
+        .filter(|candidate| is_part(candidate))
         .collect()
 }
 
@@ -620,6 +618,37 @@ pub(crate) fn time_s(time_ns: u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_the_names_part_path_gives_are_parts() {
+        let folder =
+            std::env::temp_dir().join(format!("host-recording-parts-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&folder);
+        std::fs::create_dir_all(&folder).unwrap();
+        let names = [
+            "run.mcap",
+            "run_1.mcap",
+            "run_12.mcap",
+            "run_01.mcap",
+            "run_0.mcap",
+            "run_x.mcap",
+            "run_2.txt",
+            "other_3.mcap",
+            "run_run_4.mcap",
+        ];
+        for name in names {
+            std::fs::write(folder.join(name), b"").unwrap();
+        }
+        let path = folder.join("run.mcap");
+        assert_eq!(part_path(&path, 12), folder.join("run_12.mcap"));
+        let mut parts = existing_parts(&path);
+        parts.sort();
+        assert_eq!(
+            parts,
+            vec![folder.join("run_1.mcap"), folder.join("run_12.mcap")]
+        );
+        std::fs::remove_dir_all(&folder).unwrap();
+    }
 
     #[test]
     fn times_round_to_nanoseconds() {
