@@ -46,6 +46,7 @@
 //!   Finding the local pairs is `O(n²)`, `n` being bounded by the local map size.
 
 use std::collections::{HashMap, HashSet};
+use std::ops::ControlFlow;
 
 /// Hash maps keyed by small integer tuples, hashed with `foldhash` (fixed seed, so runs
 /// repeat exactly): voting inserts hundreds of thousands of keys per local map, where the
@@ -169,22 +170,38 @@ struct LocalPoint {
 }
 
 /// One cell of the voting table. Kept small (the table holds tens of thousands of cells while
-/// a local map is searched): the hypothesis is kept as the pairs that gave it, and rebuilt for
-/// the few cells that are verified ([`Constellation::hypothesis`]).
+/// a local map is searched): the hypothesis is kept as the local pair that gave it, and
+/// rebuilt for the few cells that are verified ([`Constellation::hypothesis`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Vote {
     count: u32,
-    /// The longest local pair that voted here (the best determined angle): its index in the
-    /// local pairs...
+    /// The longest local pair that voted here (the best determined angle; the first of
+    /// equal length): its index in the local pairs. The old pair it went onto is the first
+    /// of its hypotheses that falls in the cell.
     local_pair: u32,
-    /// ...and the old landmarks its first and second point went onto.
-    old_first: u32,
-    old_second: u32,
 }
 
-/// A cell of the voting table: angle bin, then the bins of where the local centroid lands.
-/// The casts saturate, so only positions thousands of kilometres out could share a cell.
-type VoteKey = (i32, i32, i32);
+/// A cell of the voting table: angle bin, then the bins of where the local centroid lands,
+/// packed in one word ([`vote_key`]) whose order is theirs.
+type VoteKey = u64;
+
+/// Bits of a position bin in a [`VoteKey`]; the angle bin takes the 16 above them.
+const VOTE_POSITION_BITS: u32 = 24;
+
+/// The cell of angle bin `angle` and position bins `x` and `y` (bin indices, not yet
+/// rounded). Each is offset to be non-negative and saturates at its field, so the keys order
+/// as the `(angle, x, y)` bins do, and only positions thousands of kilometres out (at the
+/// default bin of 1 m) could share a cell.
+fn vote_key(angle: f64, x: f64, y: f64) -> VoteKey {
+    let field = |bin: f64, bits: u32| {
+        let half = (1_i64 << (bits - 1)) as f64;
+        // The cast saturates; the clamp keeps the value in its field.
+        (bin + half).clamp(0.0, 2.0 * half - 1.0) as u64
+    };
+    (field(angle.round(), 16) << (2 * VOTE_POSITION_BITS))
+        | (field(x.floor(), VOTE_POSITION_BITS) << VOTE_POSITION_BITS)
+        | field(y.floor(), VOTE_POSITION_BITS)
+}
 
 /// The old map indexed for place recognition. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq)]
@@ -306,12 +323,14 @@ impl Constellation {
             return Vec::new();
         }
         let local_pairs = self.local_pairs(&local);
-        let votes = self.vote(&local, &local_pairs);
+        let centroid = centroid_in_map(local.iter().map(|point| point.position_in_map));
+        let votes = self.vote(&local, &local_pairs, centroid);
         let ranked = most_voted(votes, kept);
         let mut verified: Vec<PlaceMatch> = ranked
             .iter()
-            .filter_map(|(_, vote)| {
-                self.verify(&local, vote, self.hypothesis(&local, &local_pairs, vote))
+            .filter_map(|cell| {
+                let old_from_local = self.hypothesis(&local, &local_pairs, centroid, cell)?;
+                self.verify(&local, &cell.1, old_from_local)
             })
             .collect();
         verified.sort_by(|a, b| {
@@ -335,94 +354,107 @@ impl Constellation {
     }
 
     /// Hypotheses from every local pair (`local_pairs`, from [`Self::local_pairs`]) against the
-    /// old pairs of the same length, binned.
+    /// old pairs of the same length, binned; `centroid` is the local landmarks' centroid.
     fn vote(
         &self,
         local: &[LocalPoint],
         local_pairs: &[(usize, usize, f64)],
+        centroid: [f64; 2],
     ) -> FastMap<VoteKey, Vote> {
-        let options = &self.options;
-        let tolerance_m = options.distance_tolerance_m;
-        let slack_m = 2.0 * self.reindex_shift_m();
-        let position_bin_m = VOTE_POSITION_BIN_FACTOR * options.inlier_distance_m;
-        let centroid = centroid_in_map(local.iter().map(|point| point.position_in_map));
         let mut votes: FastMap<VoteKey, Vote> = FastMap::default();
-        for (local_pair, &(i, j, length_m)) in local_pairs.iter().enumerate() {
-            let (first, second) = (&local[i], &local[j]);
-            let local_frame = PairFrame::new(first.position_in_map, second.position_in_map);
-            let low = self.length_key(length_m - tolerance_m - slack_m);
-            let high = self.length_key(length_m + tolerance_m + slack_m);
-            for key in low..=high {
-                let Some(bucket) = self.pairs_by_length.get(&key) else {
-                    continue;
-                };
-                for pair in bucket {
-                    let (Some(a), Some(b)) = (
-                        self.live(pair.first, pair.first_generation),
-                        self.live(pair.second, pair.second_generation),
-                    ) else {
-                        continue;
-                    };
-                    let old_length_m = distance_m(a.position_in_map, b.position_in_map);
-                    if (old_length_m - length_m).abs() > tolerance_m {
-                        continue;
-                    }
-                    let orientations = [
-                        (a, b, pair.first, pair.second),
-                        (b, a, pair.second, pair.first),
-                    ];
-                    for (to_first, to_second, old_first, old_second) in orientations {
-                        if !self.compatible(&first.info, &to_first.info)
-                            || !self.compatible(&second.info, &to_second.info)
-                        {
-                            continue;
-                        }
-                        let old_from_local = local_frame
-                            .transform_onto(to_first.position_in_map, to_second.position_in_map);
-                        let landed = transform(old_from_local, centroid);
-                        let key = (
-                            (old_from_local.theta_rad / VOTE_ANGLE_BIN_RAD).round() as i32,
-                            (landed[0] / position_bin_m).floor() as i32,
-                            (landed[1] / position_bin_m).floor() as i32,
-                        );
-                        // Landmark and pair counts are far below `u32::MAX`.
-                        let this = Vote {
-                            count: 0,
-                            local_pair: local_pair as u32,
-                            old_first: old_first as u32,
-                            old_second: old_second as u32,
-                        };
-                        let vote = votes.entry(key).or_insert(this);
-                        vote.count = vote.count.saturating_add(1);
-                        if length_m > local_pairs[vote.local_pair as usize].2 {
-                            *vote = Vote {
-                                count: vote.count,
-                                ..this
-                            };
-                        }
-                    }
+        for (local_pair, &pair) in local_pairs.iter().enumerate() {
+            // Landmark and pair counts are far below `u32::MAX`.
+            let this = Vote {
+                count: 0,
+                local_pair: local_pair as u32,
+            };
+            self.pair_hypotheses(local, pair, centroid, |key, _| {
+                let vote = votes.entry(key).or_insert(this);
+                vote.count = vote.count.saturating_add(1);
+                if pair.2 > local_pairs[vote.local_pair as usize].2 {
+                    vote.local_pair = this.local_pair;
                 }
-            }
+                ControlFlow::<()>::Continue(())
+            });
         }
         votes
     }
 
-    /// The hypothesis `old_from_local` a cell of the voting table keeps: its local pair laid
-    /// onto its old pair, as [`Self::vote`] computed it.
+    /// Every hypothesis the local pair `(i, j, length_m)` gives, in a fixed order: laid onto
+    /// each old pair of its length (within the tolerance), both ways round, whose landmarks
+    /// are compatible with its own; each as the cell of the voting table it falls in (where
+    /// it takes `centroid`) and its `old_from_local`. Stops when `visit` breaks, with what it
+    /// broke with.
+    fn pair_hypotheses<B>(
+        &self,
+        local: &[LocalPoint],
+        (i, j, length_m): (usize, usize, f64),
+        centroid: [f64; 2],
+        mut visit: impl FnMut(VoteKey, Pose2) -> ControlFlow<B>,
+    ) -> Option<B> {
+        let options = &self.options;
+        let tolerance_m = options.distance_tolerance_m;
+        let slack_m = 2.0 * self.reindex_shift_m();
+        let position_bin_m = VOTE_POSITION_BIN_FACTOR * options.inlier_distance_m;
+        let (first, second) = (&local[i], &local[j]);
+        let local_frame = PairFrame::new(first.position_in_map, second.position_in_map);
+        let low = self.length_key(length_m - tolerance_m - slack_m);
+        let high = self.length_key(length_m + tolerance_m + slack_m);
+        for key in low..=high {
+            let Some(bucket) = self.pairs_by_length.get(&key) else {
+                continue;
+            };
+            for pair in bucket {
+                let (Some(a), Some(b)) = (
+                    self.live(pair.first, pair.first_generation),
+                    self.live(pair.second, pair.second_generation),
+                ) else {
+                    continue;
+                };
+                let old_length_m = distance_m(a.position_in_map, b.position_in_map);
+                if (old_length_m - length_m).abs() > tolerance_m {
+                    continue;
+                }
+                for (to_first, to_second) in [(a, b), (b, a)] {
+                    if !self.compatible(&first.info, &to_first.info)
+                        || !self.compatible(&second.info, &to_second.info)
+                    {
+                        continue;
+                    }
+                    let old_from_local = local_frame
+                        .transform_onto(to_first.position_in_map, to_second.position_in_map);
+                    let landed = transform(old_from_local, centroid);
+                    let cell = vote_key(
+                        old_from_local.theta_rad / VOTE_ANGLE_BIN_RAD,
+                        landed[0] / position_bin_m,
+                        landed[1] / position_bin_m,
+                    );
+                    if let ControlFlow::Break(found) = visit(cell, old_from_local) {
+                        return Some(found);
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// The hypothesis `old_from_local` the cell `key` of the voting table keeps: the first
+    /// of its local pair's hypotheses that falls in it, as [`Self::vote`] met it.
     fn hypothesis(
         &self,
         local: &[LocalPoint],
         local_pairs: &[(usize, usize, f64)],
-        vote: &Vote,
-    ) -> Pose2 {
-        let (i, j, _) = local_pairs[vote.local_pair as usize];
-        let position = |old: u32| {
-            self.landmarks[old as usize]
-                .as_ref()
-                .map_or([f64::NAN; 2], |landmark| landmark.position_in_map)
-        };
-        PairFrame::new(local[i].position_in_map, local[j].position_in_map)
-            .transform_onto(position(vote.old_first), position(vote.old_second))
+        centroid: [f64; 2],
+        (key, vote): &(VoteKey, Vote),
+    ) -> Option<Pose2> {
+        let pair = local_pairs[vote.local_pair as usize];
+        self.pair_hypotheses(local, pair, centroid, |cell, old_from_local| {
+            if cell == *key {
+                ControlFlow::Break(old_from_local)
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
     }
 
     /// Each local landmark with its `pairs_per_landmark` nearest neighbours in the usable
@@ -911,20 +943,49 @@ mod tests {
     }
 
     #[test]
+    fn cells_order_as_their_bins_and_saturate_far_out() {
+        let bins = [
+            (-36.0, -5.2, 7.9),
+            (-36.0, -5.0, -3.0),
+            (0.4, 1e9, -1e9),
+            (0.0, 0.0, 0.0),
+            (0.0, 0.0, 0.5),
+            (36.0, -8_388_608.0, 8_388_607.0),
+        ];
+        let key = |&(a, x, y): &(f64, f64, f64)| vote_key(a, x, y);
+        let as_tuple = |&(a, x, y): &(f64, f64, f64)| {
+            (
+                a.round() as i32,
+                (x.floor() as i32).clamp(-(1 << 23), (1 << 23) - 1),
+                (y.floor() as i32).clamp(-(1 << 23), (1 << 23) - 1),
+            )
+        };
+        for a in &bins {
+            for b in &bins {
+                assert_eq!(
+                    key(a).cmp(&key(b)),
+                    as_tuple(a).cmp(&as_tuple(b)),
+                    "{a:?} {b:?}"
+                );
+            }
+        }
+        assert_eq!(vote_key(0.0, 0.0, 0.0), vote_key(0.4, 0.9, 0.2));
+        assert_eq!(vote_key(0.0, 1e12, 0.0), vote_key(0.0, 1e9, 0.0));
+    }
+
+    #[test]
     fn the_most_voted_cells_are_the_first_of_the_whole_table_sorted() {
         // Cells with few distinct counts, so that ties are many and the key must break them.
         let votes: FastMap<VoteKey, Vote> = (0..5_000u32)
             .map(|i| {
-                let key = (
-                    (i % 7) as i32,
-                    (i / 7 % 31) as i32 - 15,
-                    (i.wrapping_mul(2_654_435_761) % 97) as i32,
+                let key = vote_key(
+                    (i % 7) as f64,
+                    (i / 7 % 31) as f64 - 15.0,
+                    (i.wrapping_mul(2_654_435_761) % 97) as f64,
                 );
                 let vote = Vote {
                     count: i.wrapping_mul(2_654_435_761) % 5,
                     local_pair: i,
-                    old_first: i,
-                    old_second: i,
                 };
                 (key, vote)
             })
