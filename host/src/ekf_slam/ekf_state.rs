@@ -977,10 +977,9 @@ mod tests {
         joined_and_merged_agree(large, 27, &[(0, 70), (3, 5), (4, 41), (8, 0), (11, 79)]);
     }
 
-    /// Joins `state` with `k` new entries (a pose, then landmarks) and fuses `pairs`, both
-    /// ways, and checks they agree to the bit.
-    fn joined_and_merged_agree(state: EkfState, k: usize, pairs: &[(usize, usize)]) {
-        let n = state.dim();
+    /// `k` new entries (a pose, then landmarks) to join to a state of `n` entries: their
+    /// mean, their covariance with the state and their own.
+    fn join_inputs(n: usize, k: usize) -> (DVector<f64>, CrossCovariance, DMatrix<f64>) {
         let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
         let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
         let cross = CrossCovariance::new(
@@ -988,6 +987,13 @@ mod tests {
             DMatrix::from_fn(3, n, |r, c| 0.02 * ((r + 2 * c) % 7) as f64),
         );
         let new = DVector::from_fn(k, |r, _| 1.0 + 0.3 * r as f64);
+        (new, cross, own)
+    }
+
+    /// Joins `state` with `k` new entries (a pose, then landmarks) and fuses `pairs`, both
+    /// ways, and checks they agree to the bit.
+    fn joined_and_merged_agree(state: EkfState, k: usize, pairs: &[(usize, usize)]) {
+        let (new, cross, own) = join_inputs(state.dim(), k);
         let sigma_m = 1e-3;
         let mut reference = state.clone();
         reference.replace_pose_and_append(&new, &cross, &own);
@@ -1045,14 +1051,7 @@ mod tests {
         // Two joins of a new pose and three new landmarks: two of them fused into old ones,
         // then none.
         for pairs in [&[(0, 2), (2, 0)][..], &[]] {
-            let (n, k) = (whole.dim(), 9);
-            let b = DMatrix::from_fn(k, k, |r, c| ((r * 5 + c * 2) % 7) as f64 * 0.04 - 0.1);
-            let own = &b * b.transpose() + DMatrix::identity(k, k) * 0.5;
-            let cross = CrossCovariance::new(
-                DMatrix::from_fn(k, 3, |r, c| 0.1 * ((r * 3 + c) % 5) as f64),
-                DMatrix::from_fn(3, n, |r, c| 0.02 * ((r + 2 * c) % 7) as f64),
-            );
-            let new = DVector::from_fn(k, |r, _| 1.0 + 0.3 * r as f64);
+            let (new, cross, own) = join_inputs(whole.dim(), 9);
             packed
                 .replace_pose_append_and_fuse(&new, &cross, &own, pairs, 1e-3)
                 .unwrap();
