@@ -32,7 +32,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use host::link::LinkReader;
-use host::recording::{part_path, read_recording};
+use host::recording::read_recording;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robot_host::LinkCounters;
@@ -129,8 +129,8 @@ pub struct RecordingCheck {
     pub error: Option<String>,
     /// Whether it ends before its footer (as a killed daemon leaves it).
     pub truncated: bool,
-    /// Parts it was read from (`run.mcap`, `run_1.mcap`, …).
-    pub parts: usize,
+    /// Files it was read from (`run.mcap`, `run_1.mcap`, …; none when refused).
+    pub parts: u32,
     /// Frames decoded from its raw reads.
     pub frames: u64,
     /// Frames the daemon had counted but the recording does not hold.
@@ -576,9 +576,6 @@ fn post_oversized_goal(web: SocketAddr) -> io::Result<u16> {
 
 /// Reads the recording a killed daemon left and counts the frames its raw reads hold.
 fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCheck {
-    let parts = (0..)
-        .take_while(|&index: &u32| part_path(path, index).is_file())
-        .count();
     match read_recording(path) {
         Ok(recording) => {
             let mut link = LinkReader::new();
@@ -590,7 +587,7 @@ fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCh
             RecordingCheck {
                 error: None,
                 truncated: recording.truncated,
-                parts,
+                parts: recording.parts,
                 frames,
                 frames_missing: daemon_frames.saturating_sub(frames),
                 frames_missing_allowed: allowed,
@@ -599,7 +596,7 @@ fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCh
         Err(e) => RecordingCheck {
             error: Some(e.to_string()),
             truncated: false,
-            parts,
+            parts: 0,
             frames: 0,
             frames_missing: daemon_frames,
             frames_missing_allowed: allowed,

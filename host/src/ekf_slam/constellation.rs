@@ -195,6 +195,8 @@ const VOTE_POSITION_BITS: u32 = 24;
 fn vote_key(angle: f64, x: f64, y: f64) -> VoteKey {
     let field = |bin: f64, bits: u32| {
         let half = (1_i64 << (bits - 1)) as f64;
+        // Bin 0 for what is not a number, as a cast would give.
+        let bin = if bin.is_nan() { 0.0 } else { bin };
         // The cast saturates; the clamp keeps the value in its field.
         (bin + half).clamp(0.0, 2.0 * half - 1.0) as u64
     };

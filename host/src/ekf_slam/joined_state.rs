@@ -152,7 +152,8 @@ impl<C: CovarianceStore> CovarianceEntries for JoinedState<'_, C> {
     fn entry(&self, row: usize, column: usize) -> f64 {
         match (self.source(row), self.source(column)) {
             (Source::Map(r), Source::Map(c)) => self.state.covariance().entry(r, c),
-            (Source::New(r), Source::New(c)) => self.own[(r, c)],
+            // The lower triangle, as the join stores it.
+            (Source::New(r), Source::New(c)) => self.own[(r.max(c), r.min(c))],
             (Source::New(r), Source::Map(c)) => self.cross.entry(r, c),
             (Source::Map(r), Source::New(c)) => self.cross.entry(c, r),
         }

@@ -97,6 +97,9 @@ pub struct Recording {
     /// Whether the file, or one of its parts, ends before its footer (the recorder did not
     /// finish): the records above are those of the complete chunks.
     pub truncated: bool,
+    /// Files read: the first, then its further parts (a part cut before its first bytes
+    /// is not one).
+    pub parts: u32,
 }
 
 /// Reads the recording at `path`, tolerating a file cut short by a kill (see the
@@ -188,6 +191,7 @@ impl Records {
     fn read_part(&mut self, mut source: impl Read, path: &Path) -> Result<(), RecordingError> {
         self.path = path.to_path_buf();
         self.topics.clear();
+        self.recording.parts += 1;
         let mut magic = [0u8; 8];
         match source.read_exact(&mut magic) {
             Ok(()) if magic == mcap::MAGIC => {}
@@ -656,7 +660,14 @@ mod tests {
 
         // Read from the first part's path, the parts make the recording written in one file.
         let recording = read_recording(&parts_path.0).unwrap();
-        assert_eq!(recording, whole);
+        assert_eq!((recording.parts, whole.parts), (summary.parts, 1));
+        assert_eq!(
+            Recording {
+                parts: 1,
+                ..recording
+            },
+            whole
+        );
         // Each part is a finished MCAP file of its own, its records in order after the last.
         let mut raw_reads = Vec::new();
         let mut counted = BTreeMap::<String, u64>::new();
@@ -696,6 +707,8 @@ mod tests {
             std::fs::write(&last, &bytes[..kept_bytes]).unwrap();
             let recording = read_recording(&path.0).unwrap();
             assert!(recording.truncated);
+            // A part with no bytes is not one; one with its magic is, empty.
+            assert_eq!(recording.parts, summary.parts - u32::from(kept_bytes == 0));
             assert_eq!(recording.raw_reads.len(), earlier);
             assert!(earlier > 0 && earlier < reads.len());
             for (read, (t, bytes)) in recording.raw_reads.iter().zip(&reads) {
