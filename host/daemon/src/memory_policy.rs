@@ -4,15 +4,28 @@
 //! that threshold to the size of any such block that is freed (up to 32 MiB), and keeps up
 //! to twice the threshold of free memory at the top of each heap. The daemon frees a few
 //! blocks of megabytes at start (decoding the aerial image for the web view), so from then
-//! on the global map's covariance, a block that grows with every join, lives in the heaps:
-//! each growth leaves the old block behind as free memory, and the heaps keep what the
-//! largest working sets needed. With the thresholds fixed, blocks of 512 KiB and more are
-//! mapped on their own (the covariance grows in place, by remapping, and its block is
-//! handed back whole once it is freed), and a heap keeps at most 512 KiB free at its top.
+//! on the large working sets would live in the heaps: the global map's covariance, a block
+//! that grows with every join, and the passing ones (a join's matrices, place recognition's
+//! voting table, a web answer of the whole state, a burst of scans queued after a replug).
+//! Each leaves its block behind as free memory among blocks still in use, and over hours
+//! the heaps grow to hold the high points of all of them. With the thresholds fixed, blocks
+//! of [`MAPPED_BLOCK_BYTES`] and more are mapped on their own and handed back whole once
+//! freed (the covariance grows in place, by remapping), and a heap keeps at most that much
+//! free at its top.
+//!
+//! The smaller blocks a working set frees in the middle of a heap are out of any threshold's
+//! reach. So the daemon also hands free pages back every [`RETURN_FREE_MEMORY_EVERY`]
+//! ([`FreeMemoryReturner`]): `malloc_trim` gives the kernel every whole free page of every
+//! heap, and the resident memory follows what is in use rather than what ever was.
+
+use std::time::{Duration, Instant};
 
 /// The threshold from which a block gets a mapping of its own, and the free memory a heap
 /// keeps at its top, bytes.
-pub const MAPPED_BLOCK_BYTES: i32 = 512 * 1024;
+pub const MAPPED_BLOCK_BYTES: i32 = 128 * 1024;
+
+/// How often the free pages of the heaps go back to the kernel.
+pub const RETURN_FREE_MEMORY_EVERY: Duration = Duration::from_secs(1);
 
 /// Fixes glibc's thresholds (see the module documentation). Call it first thing in `main`,
 /// before other threads start. Elsewhere than glibc it does nothing.
@@ -23,5 +36,55 @@ pub fn settle_allocator() {
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, MAPPED_BLOCK_BYTES);
         libc::mallopt(libc::M_TRIM_THRESHOLD, MAPPED_BLOCK_BYTES);
+    }
+}
+
+/// Hands the heaps' free pages back to the kernel, at most once per
+/// [`RETURN_FREE_MEMORY_EVERY`] (see the module documentation). Elsewhere than glibc it does
+/// nothing.
+#[derive(Debug)]
+pub struct FreeMemoryReturner {
+    next: Instant,
+}
+
+impl Default for FreeMemoryReturner {
+    fn default() -> Self {
+        FreeMemoryReturner {
+            next: Instant::now() + RETURN_FREE_MEMORY_EVERY,
+        }
+    }
+}
+
+impl FreeMemoryReturner {
+    /// Hands the free pages back if [`RETURN_FREE_MEMORY_EVERY`] has passed since the last
+    /// time; returns whether it did. Takes each heap's lock in turn for as long as it walks
+    /// that heap's free blocks (microseconds for the daemon's few megabytes).
+    pub fn tick(&mut self) -> bool {
+        let now = Instant::now();
+        if now < self.next {
+            return false;
+        }
+        self.next = now + RETURN_FREE_MEMORY_EVERY;
+        #[cfg(all(target_os = "linux", target_env = "gnu"))]
+        // SAFETY: `malloc_trim` only returns free pages of the allocator's own heaps to the
+        // kernel; it takes each heap's lock and is safe to call from any thread at any time.
+        unsafe {
+            libc::malloc_trim(0);
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn free_memory_goes_back_at_most_once_per_interval() {
+        let mut returner = FreeMemoryReturner {
+            next: Instant::now(),
+        };
+        assert!(returner.tick());
+        assert!(!returner.tick(), "not again within the interval");
     }
 }

@@ -25,6 +25,7 @@ use crate::camera_capture::FrameSource;
 use crate::camera_runner::{CameraInputs, CameraThreads};
 use crate::config::{DaemonConfig, SlamMethod};
 use crate::foxglove_live::start_live_server;
+use crate::memory_policy::FreeMemoryReturner;
 use crate::publish::{grid_view, publish_ekf, publish_grid, publish_grid_pose};
 use crate::state::{LiveState, SharedState};
 use host::camera::{CameraPipeline, CameraPipelineOptions};
@@ -563,7 +564,8 @@ fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonErro
 }
 
 /// The reader thread: port → session → pipelines and recorder; pings; reopens after an
-/// unplug, keeping the session (counters, clock, partial state) across.
+/// unplug, keeping the session (counters, clock, partial state) across; and once a second
+/// hands the heaps' free pages back ([`FreeMemoryReturner`]).
 fn read_port(
     mut opener: Box<dyn PortOpener>,
     (link, clock): (&crate::config::LinkConfig, Instant),
@@ -579,7 +581,9 @@ fn read_port(
     let mut next_ping_s = 0.0;
     let mut buf = vec![0u8; 8192];
     let mut opened_before = false;
+    let mut free_memory = FreeMemoryReturner::default();
     while !shutdown.load(Ordering::Relaxed) {
+        free_memory.tick();
         let Some(p) = port.as_mut() else {
             if Instant::now() >= next_open {
                 match opener.open() {
