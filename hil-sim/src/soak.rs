@@ -4,12 +4,14 @@
 //! `/proc`, every frame accounted for, and its recording read back after a `kill -9`.
 //!
 //! * Memory and threads: the daemon's resident memory (`VmRSS`) and thread count are sampled
-//!   every half second of wall-clock time with the frames its web view reports. The peak
-//!   (the largest `VmHWM`, the kernel's high-water mark over the daemon's whole life, or
-//!   `VmRSS` of any sample: the kernel updates the mark lazily, and a reading can come out
-//!   below one taken earlier) is compared with the resident memory after the first
-//!   simulated minute, when the map, the web view and the recorder have started; it must
-//!   stay within [`MEMORY_GROWTH_LIMIT`].
+//!   every half second of wall-clock time with the frames its web view reports, and the
+//!   kernel's high-water mark of the resident memory (`VmHWM`) is read and reset at each
+//!   sample, so that each reading covers the half second before it. The peak from the first
+//!   simulated minute on (the largest `VmHWM` or `VmRSS` of the samples after it: the kernel
+//!   updates the mark lazily) is compared with the resident memory after that minute, when
+//!   the map, the web view and the recorder have started; it must stay within
+//!   [`MEMORY_GROWTH_LIMIT`]. The peak of the start (the aerial image decoded for the web
+//!   view) comes before and is reported beside it.
 //! * Accounting: the simulation's own (every telegram the laser sent delivered intact or
 //!   counted as rejected), and the daemon's frame count equal to what the board sent up.
 //! * The kill: once the daemon has taken in the last frame it is sent `SIGKILL` after a
@@ -116,7 +118,9 @@ pub struct SoakSample {
     pub frames: u64,
     /// Resident memory, KiB.
     pub rss_kib: u64,
-    /// The kernel's high-water mark of the resident memory, KiB.
+    /// The kernel's high-water mark of the resident memory since the previous sample
+    /// (the mark is reset after each reading; over the daemon's life so far where the kernel
+    /// refuses the reset), KiB.
     pub peak_rss_kib: u64,
     /// Threads.
     pub threads: u64,
@@ -157,9 +161,11 @@ pub struct SoakReport {
     pub samples: usize,
     /// Resident memory after the first simulated minute, KiB.
     pub rss_after_first_minute_kib: u64,
-    /// The daemon's peak resident memory over its life, KiB: the largest `VmHWM` or `VmRSS`
-    /// of any sample.
+    /// The daemon's peak resident memory from the first minute on, KiB: the largest `VmHWM`
+    /// or `VmRSS` of the samples that follow it.
     pub peak_rss_kib: u64,
+    /// The daemon's peak resident memory over its whole life, its start included, KiB.
+    pub peak_rss_since_start_kib: u64,
     /// Peak over the memory after the first minute.
     pub peak_over_first_minute: f64,
     /// Goal requests with a 10 MiB body sent.
@@ -351,12 +357,18 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         .max()
         .unwrap_or(settled.threads);
     // `VmHWM` is kept lazily by the kernel (a reading is the larger of the last recorded
-    // mark and the current resident memory), so the peak is the largest of every reading.
-    let peak_rss_kib = samples
-        .iter()
-        .map(|s| s.peak_rss_kib.max(s.rss_kib))
-        .max()
-        .unwrap_or(0);
+    // mark and the current resident memory), so a peak is the largest of the readings. Each
+    // sample's mark covers the time since the one before: from the first minute on is what
+    // the samples after the reference saw, and the reference itself.
+    let peak_of = |samples: &mut dyn Iterator<Item = &SoakSample>| {
+        samples
+            .map(|s| s.peak_rss_kib.max(s.rss_kib))
+            .max()
+            .unwrap_or(0)
+    };
+    let peak_rss_kib =
+        peak_of(&mut samples.iter().filter(|s| s.wall_s > settled.wall_s)).max(settled.rss_kib);
+    let peak_rss_since_start_kib = peak_of(&mut samples.iter());
     let peak_over_first_minute = peak_rss_kib as f64 / settled.rss_kib.max(1) as f64;
 
     let mut failures = Vec::new();
@@ -409,6 +421,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         samples: samples.len(),
         rss_after_first_minute_kib: settled.rss_kib,
         peak_rss_kib,
+        peak_rss_since_start_kib,
         peak_over_first_minute,
         oversized_requests,
         oversized_requests_413,
@@ -506,15 +519,21 @@ fn take_sample(pid: u32, web: SocketAddr, started: Instant) -> io::Result<SoakSa
         status_field(&status, name)
             .ok_or_else(|| io::Error::other(format!("/proc/{pid}/status has no {name}")))
     };
+    // The next sample's mark covers only the time from here on, this sample's request to the
+    // web view included (`5` resets the high-water mark to the current resident memory; see
+    // proc(5)). Where the kernel refuses, the marks go on covering the whole life, which only
+    // overstates the peak.
+    let _ = fs::write(format!("/proc/{pid}/clear_refs"), "5");
     let state = api_state(web)?;
-    Ok(SoakSample {
+    let sample = SoakSample {
         wall_s: started.elapsed().as_secs_f64(),
         sim_s: 0.0,
         frames: state["counters"]["frames"].as_u64().unwrap_or(0),
         rss_kib: field("VmRSS:")?,
         peak_rss_kib: field("VmHWM:")?,
         threads: field("Threads:")?,
-    })
+    };
+    Ok(sample)
 }
 
 /// The daemon's link counters, from its web view.
