@@ -44,6 +44,8 @@ fn daemon_soak_with_every_fault_kind_keeps_its_accounting_memory_and_recording()
     let report = run(&options, |_| {}).expect("the soak runs");
     let summary = serde_json::to_string_pretty(&report).unwrap_or_default();
     assert!(report.passed(), "{:?}\n{summary}", report.failures);
+    // Each memory reading covers the time since the sample before.
+    assert!(report.high_water_mark_resets, "{summary}");
     // Every fault kind was injected.
     let events = &report.simulation.injected.events;
     assert!(events.laser_restarts > 0 && events.gps_outages > 0 && events.link_replugs > 0);

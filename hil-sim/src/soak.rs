@@ -118,12 +118,14 @@ pub struct SoakSample {
     pub frames: u64,
     /// Resident memory, KiB.
     pub rss_kib: u64,
-    /// The kernel's high-water mark of the resident memory since the previous sample
-    /// (the mark is reset after each reading; over the daemon's life so far where the kernel
-    /// refuses the reset), KiB.
+    /// The kernel's high-water mark of the resident memory since the previous sample (the
+    /// mark is reset after each reading; since the last reset the kernel took, or over the
+    /// daemon's life, where it refuses), KiB.
     pub peak_rss_kib: u64,
     /// Threads.
     pub threads: u64,
+    /// Whether the high-water mark was reset after this reading.
+    pub mark_reset: bool,
 }
 
 /// The recording read back after the kill.
@@ -166,6 +168,10 @@ pub struct SoakReport {
     pub peak_rss_kib: u64,
     /// The daemon's peak resident memory over its whole life, its start included, KiB.
     pub peak_rss_since_start_kib: u64,
+    /// Whether the kernel took every reset of the high-water mark (where it did not, a
+    /// reading covers more than the time since the sample before, and the peak from the
+    /// first minute on may include the start).
+    pub high_water_mark_resets: bool,
     /// Peak over the memory after the first minute.
     pub peak_over_first_minute: f64,
     /// Goal requests with a 10 MiB body sent.
@@ -313,7 +319,8 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     let (oversized_requests, oversized_requests_413) = sampler
         .join()
         .map_err(|_| io::Error::other("the sampling thread panicked"))?;
-    // One last sample, the peak over the whole life included.
+    // One last sample: the memory once the daemon has the last frame, and its peak since
+    // the sampler's last sample.
     let last = take_sample(daemon.child.id(), daemon.web, started)?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ 0x50AC);
     let delay_s = rng.random_range(0.0..=flush_interval_s + 1.0);
@@ -360,15 +367,9 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
     // mark and the current resident memory), so a peak is the largest of the readings. Each
     // sample's mark covers the time since the one before: from the first minute on is what
     // the samples after the reference saw, and the reference itself.
-    let peak_of = |samples: &mut dyn Iterator<Item = &SoakSample>| {
-        samples
-            .map(|s| s.peak_rss_kib.max(s.rss_kib))
-            .max()
-            .unwrap_or(0)
-    };
     let peak_rss_kib =
-        peak_of(&mut samples.iter().filter(|s| s.wall_s > settled.wall_s)).max(settled.rss_kib);
-    let peak_rss_since_start_kib = peak_of(&mut samples.iter());
+        highest_rss_kib(samples.iter().filter(|s| s.wall_s > settled.wall_s)).max(settled.rss_kib);
+    let peak_rss_since_start_kib = highest_rss_kib(&samples);
     let peak_over_first_minute = peak_rss_kib as f64 / settled.rss_kib.max(1) as f64;
 
     let mut failures = Vec::new();
@@ -422,6 +423,7 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         rss_after_first_minute_kib: settled.rss_kib,
         peak_rss_kib,
         peak_rss_since_start_kib,
+        high_water_mark_resets: samples.iter().all(|s| s.mark_reset),
         peak_over_first_minute,
         oversized_requests,
         oversized_requests_413,
@@ -512,28 +514,36 @@ impl Drop for DaemonProcess {
     }
 }
 
-/// The daemon's memory, threads and progress now.
+/// The daemon's memory, threads and progress now. The web view is asked first, so that what
+/// answering costs falls in this sample; then the high-water mark is reset, so that the next
+/// sample's covers only the time from here on (`5` resets it to the current resident memory;
+/// see proc(5)). `mark_reset` says whether the kernel took the reset.
 fn take_sample(pid: u32, web: SocketAddr, started: Instant) -> io::Result<SoakSample> {
+    let state = api_state(web)?;
     let status = fs::read_to_string(format!("/proc/{pid}/status"))?;
+    let mark_reset = fs::write(format!("/proc/{pid}/clear_refs"), "5").is_ok();
     let field = |name: &str| {
         status_field(&status, name)
             .ok_or_else(|| io::Error::other(format!("/proc/{pid}/status has no {name}")))
     };
-    // The next sample's mark covers only the time from here on, this sample's request to the
-    // web view included (`5` resets the high-water mark to the current resident memory; see
-    // proc(5)). Where the kernel refuses, the marks go on covering the whole life, which only
-    // overstates the peak.
-    let _ = fs::write(format!("/proc/{pid}/clear_refs"), "5");
-    let state = api_state(web)?;
-    let sample = SoakSample {
+    Ok(SoakSample {
         wall_s: started.elapsed().as_secs_f64(),
         sim_s: 0.0,
         frames: state["counters"]["frames"].as_u64().unwrap_or(0),
         rss_kib: field("VmRSS:")?,
         peak_rss_kib: field("VmHWM:")?,
         threads: field("Threads:")?,
-    };
-    Ok(sample)
+        mark_reset,
+    })
+}
+
+/// The largest reading of the high-water mark or the resident memory of `samples`, KiB.
+fn highest_rss_kib<'a>(samples: impl IntoIterator<Item = &'a SoakSample>) -> u64 {
+    samples
+        .into_iter()
+        .map(|s| s.peak_rss_kib.max(s.rss_kib))
+        .max()
+        .unwrap_or(0)
 }
 
 /// The daemon's link counters, from its web view.

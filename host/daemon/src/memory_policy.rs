@@ -14,8 +14,8 @@
 //! free at its top.
 //!
 //! The smaller blocks a working set frees in the middle of a heap are out of any threshold's
-//! reach. So the daemon also hands free pages back every [`RETURN_FREE_MEMORY_EVERY`]
-//! ([`FreeMemoryReturner`]): `malloc_trim` gives the kernel every whole free page of every
+//! reach. So a thread of the daemon also hands free pages back every
+//! [`RETURN_FREE_MEMORY_EVERY`] ([`FreeMemoryReturner`]): `malloc_trim` gives the kernel every whole free page of every
 //! heap, and the resident memory follows what is in use rather than what ever was.
 
 use std::time::{Duration, Instant};
@@ -23,6 +23,9 @@ use std::time::{Duration, Instant};
 /// The threshold from which a block gets a mapping of its own, and the free memory a heap
 /// keeps at its top, bytes.
 pub const MAPPED_BLOCK_BYTES: i32 = 128 * 1024;
+
+/// Whether [`FreeMemoryReturner`] hands pages back on this target (glibc only).
+pub const RETURNS_FREE_MEMORY: bool = cfg!(all(target_os = "linux", target_env = "gnu"));
 
 /// How often the free pages of the heaps go back to the kernel.
 pub const RETURN_FREE_MEMORY_EVERY: Duration = Duration::from_secs(1);
@@ -57,8 +60,9 @@ impl Default for FreeMemoryReturner {
 
 impl FreeMemoryReturner {
     /// Hands the free pages back if [`RETURN_FREE_MEMORY_EVERY`] has passed since the last
-    /// time; returns whether it did. Takes each heap's lock in turn for as long as it walks
-    /// that heap's free blocks (microseconds for the daemon's few megabytes).
+    /// time (on glibc; elsewhere nothing); returns whether the interval had passed. Takes
+    /// each heap's lock in turn while it walks that heap's free blocks, so the daemon calls
+    /// it from a thread of its own, off the serial reader's timing.
     pub fn tick(&mut self) -> bool {
         let now = Instant::now();
         if now < self.next {
@@ -67,7 +71,8 @@ impl FreeMemoryReturner {
         self.next = now + RETURN_FREE_MEMORY_EVERY;
         #[cfg(all(target_os = "linux", target_env = "gnu"))]
         // SAFETY: `malloc_trim` only returns free pages of the allocator's own heaps to the
-        // kernel; it takes each heap's lock and is safe to call from any thread at any time.
+        // kernel; it takes each heap's lock and may be called from any thread (not from a
+        // signal handler, which this is not).
         unsafe {
             libc::malloc_trim(0);
         }

@@ -1,5 +1,6 @@
 //! The running daemon: the reader thread on the serial port, one thread per SLAM pipeline,
-//! the recorder thread, the web view and the live Foxglove stream.
+//! the recorder thread, the web view, the live Foxglove stream and, on glibc, a thread that
+//! hands the heaps' free pages back every second ([`memory_policy`]).
 //!
 //! ```text
 //! port ──▶ reader ──events──▶ ekf thread  ──▶ LiveState ◀── web view, goal API
@@ -25,7 +26,7 @@ use crate::camera_capture::FrameSource;
 use crate::camera_runner::{CameraInputs, CameraThreads};
 use crate::config::{DaemonConfig, SlamMethod};
 use crate::foxglove_live::start_live_server;
-use crate::memory_policy::FreeMemoryReturner;
+use crate::memory_policy::{self, FreeMemoryReturner};
 use crate::publish::{grid_view, publish_ekf, publish_grid, publish_grid_pose};
 use crate::state::{LiveState, SharedState};
 use host::camera::{CameraPipeline, CameraPipelineOptions};
@@ -166,6 +167,7 @@ pub struct Daemon {
     recorder: Option<JoinHandle<Result<RecordingSummary, RecordingError>>>,
     camera: Option<CameraThreads>,
     live: Option<(JoinHandle<()>, std::net::SocketAddr)>,
+    memory: Option<JoinHandle<()>>,
     web: Option<crate::web::WebServer>,
     web_token: Option<String>,
     clock: Instant,
@@ -348,6 +350,20 @@ impl Daemon {
             None => None,
         };
 
+        // Off the reader's path, whose receive times the clock sync uses.
+        let memory = if memory_policy::RETURNS_FREE_MEMORY {
+            let shutdown = shutdown.clone();
+            Some(spawn("memory", move || {
+                let mut returner = FreeMemoryReturner::default();
+                while !shutdown.load(Ordering::Relaxed) {
+                    returner.tick();
+                    thread::sleep(READ_TIMEOUT);
+                }
+            })?)
+        } else {
+            None
+        };
+
         let mut web_token = None;
         let web = if config.web.enabled {
             let access = access_policy(&config.web)?;
@@ -397,6 +413,7 @@ impl Daemon {
             recorder,
             camera,
             live,
+            memory,
             web,
             web_token,
             clock,
@@ -460,6 +477,9 @@ impl Daemon {
             .transpose()?
             .transpose()?;
         if let Some((handle, _)) = self.live {
+            let _ = handle.join();
+        }
+        if let Some(handle) = self.memory {
             let _ = handle.join();
         }
         if let Some(web) = self.web {
@@ -564,8 +584,7 @@ fn load_image(config: &DaemonConfig) -> Result<Option<Arc<GeoImage>>, DaemonErro
 }
 
 /// The reader thread: port → session → pipelines and recorder; pings; reopens after an
-/// unplug, keeping the session (counters, clock, partial state) across; and once a second
-/// hands the heaps' free pages back ([`FreeMemoryReturner`]).
+/// unplug, keeping the session (counters, clock, partial state) across.
 fn read_port(
     mut opener: Box<dyn PortOpener>,
     (link, clock): (&crate::config::LinkConfig, Instant),
@@ -581,9 +600,7 @@ fn read_port(
     let mut next_ping_s = 0.0;
     let mut buf = vec![0u8; 8192];
     let mut opened_before = false;
-    let mut free_memory = FreeMemoryReturner::default();
     while !shutdown.load(Ordering::Relaxed) {
-        free_memory.tick();
         let Some(p) = port.as_mut() else {
             if Instant::now() >= next_open {
                 match opener.open() {

@@ -27,7 +27,7 @@ const ROW_BYTES: usize = 32;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PoseHistoryOptions {
     /// Newest poses kept in memory; a full block moves to the file. Default 1 024 (half a
-    /// minute of scans at 37.5 Hz, 48 KiB).
+    /// minute of scans at 37.5 Hz, 32 KiB).
     pub block_rows: usize,
     /// Most poses in the thinned copy the live view draws.
     pub max_shown: usize,
