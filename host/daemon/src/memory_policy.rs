@@ -15,8 +15,9 @@
 //!
 //! The smaller blocks a working set frees in the middle of a heap are out of any threshold's
 //! reach. So a thread of the daemon also hands free pages back every
-//! [`RETURN_FREE_MEMORY_EVERY`] ([`FreeMemoryReturner`]): `malloc_trim` gives the kernel every whole free page of every
-//! heap, and the resident memory follows what is in use rather than what ever was.
+//! [`RETURN_FREE_MEMORY_EVERY`] ([`FreeMemoryReturner`]): `malloc_trim` gives the kernel
+//! every whole free page of every heap, and the resident memory follows what is in use
+//! rather than what ever was.
 
 use std::time::{Duration, Instant};
 
