@@ -627,12 +627,6 @@ impl EkfState {
                 state_dim: n,
             });
         }
-        if m == 0 {
-            return Ok(());
-        }
-        // Textbook names: p_ht = P Hᵀ, s = H P Hᵀ + R, k_gain = P Hᵀ S⁻¹. H is sparse (a
-        // measurement touches a few state entries), so P Hᵀ and H P Hᵀ are summed over its
-        // non-zeros: O(n · nnz) instead of O(n² m).
         let nonzeros: Vec<(usize, usize, f64)> = (0..m)
             .flat_map(|row| (0..n).map(move |col| (row, col)))
             .filter_map(|(row, col)| {
@@ -640,13 +634,41 @@ impl EkfState {
                 (value != 0.0).then_some((row, col, value))
             })
             .collect();
+        self.update_sparse(innovation, &nonzeros, r)
+    }
+
+    /// [`Self::update`] with the Jacobian given by its non-zero entries `(row, column,
+    /// value)`, in row-major order, so no dense `m × n` Jacobian is formed.
+    ///
+    /// # Errors
+    /// As [`Self::update`]; an entry outside `m × n` is a dimension mismatch.
+    pub fn update_sparse(
+        &mut self,
+        innovation: &DVector<f64>,
+        nonzeros: &[(usize, usize, f64)],
+        r: &DMatrix<f64>,
+    ) -> Result<(), EkfError> {
+        let m = innovation.len();
+        let n = self.dim();
+        if r.shape() != (m, m) || nonzeros.iter().any(|&(row, col, _)| row >= m || col >= n) {
+            return Err(EkfError::DimensionMismatch {
+                rows: m,
+                state_dim: n,
+            });
+        }
+        if m == 0 {
+            return Ok(());
+        }
+        // Textbook names: p_ht = P Hᵀ, s = H P Hᵀ + R, k_gain = P Hᵀ S⁻¹. H is sparse (a
+        // measurement touches a few state entries), so P Hᵀ and H P Hᵀ are summed over its
+        // non-zeros: O(n · nnz) instead of O(n² m).
         let mut p_ht = DMatrix::zeros(n, m);
-        for &(row, col, value) in &nonzeros {
+        for &(row, col, value) in nonzeros {
             p_ht.column_mut(row)
                 .axpy(value, &self.covariance.column(col), 1.0);
         }
         let mut s = r.clone();
-        for &(row, col, value) in &nonzeros {
+        for &(row, col, value) in nonzeros {
             for other in 0..m {
                 s[(row, other)] += value * p_ht[(col, other)];
             }
@@ -859,6 +881,36 @@ mod tests {
         let covariance = &a * a.transpose() + DMatrix::identity(n, n) * 0.3;
         let mean = DVector::from_fn(n, |r, _| r as f64 * 0.7 - 2.0);
         EkfState::from_parts(mean, covariance, 3)
+    }
+
+    #[test]
+    fn sparse_update_equals_the_dense_one() {
+        let n = correlated_state().dim();
+        let mut h = DMatrix::zeros(2, n);
+        h[(0, 0)] = -0.8;
+        h[(0, 2)] = 0.3;
+        h[(0, 5)] = 0.8;
+        h[(1, 1)] = -1.1;
+        h[(1, 6)] = 1.1;
+        let innovation = DVector::from_column_slice(&[0.2, -0.1]);
+        let r = DMatrix::identity(2, 2) * 0.04;
+        let mut dense = correlated_state();
+        dense.update(&innovation, &h, &r).unwrap();
+        let nonzeros = [
+            (0, 0, -0.8),
+            (0, 2, 0.3),
+            (0, 5, 0.8),
+            (1, 1, -1.1),
+            (1, 6, 1.1),
+        ];
+        let mut sparse = correlated_state();
+        sparse.update_sparse(&innovation, &nonzeros, &r).unwrap();
+        assert_eq!(sparse, dense);
+        let outside = [(0, n, 1.0)];
+        assert!(matches!(
+            sparse.update_sparse(&innovation, &outside, &r),
+            Err(EkfError::DimensionMismatch { .. })
+        ));
     }
 
     #[test]

@@ -255,22 +255,29 @@ impl LocalMap {
                 target.and_then(|t| candidates[i].iter().find(|c| c.target == t).map(|c| (i, c)))
             })
             .collect();
-        let n = self.state.dim();
+        // The Jacobian by its non-zero entries, row by row (the blocks are in column order).
         let m = 2 * pairs.len();
-        let mut h = DMatrix::zeros(m, n);
+        let mut nonzeros = Vec::with_capacity(m * 5);
         let mut innovation = DVector::zeros(m);
         let mut r = DMatrix::zeros(m, m);
-        for (row, (_, candidate)) in pairs.iter().enumerate() {
-            for block in &candidate.jacobian {
-                h.view_mut((2 * row, block.column), (2, block.matrix.ncols()))
-                    .copy_from(&block.matrix);
+        for (pair, (_, candidate)) in pairs.iter().enumerate() {
+            for within in 0..2 {
+                for block in &candidate.jacobian {
+                    for k in 0..block.matrix.ncols() {
+                        let value = block.matrix[(within, k)];
+                        if value != 0.0 {
+                            nonzeros.push((2 * pair + within, block.column + k, value));
+                        }
+                    }
+                }
             }
             innovation
-                .fixed_rows_mut::<2>(2 * row)
+                .fixed_rows_mut::<2>(2 * pair)
                 .copy_from(&candidate.innovation);
-            r.fixed_view_mut::<2, 2>(2 * row, 2 * row).copy_from(&noise);
+            r.fixed_view_mut::<2, 2>(2 * pair, 2 * pair)
+                .copy_from(&noise);
         }
-        self.state.update(&innovation, &h, &r)?;
+        self.state.update_sparse(&innovation, &nonzeros, &r)?;
         for (i, candidate) in &pairs {
             self.info[candidate.target].observe(observations[*i].diameter_m);
         }
