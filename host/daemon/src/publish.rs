@@ -22,9 +22,7 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
     let time_s = ekf.last_pose().map_or(0.0, |p| p.time_s);
     let trajectory_m = ekf
         .thinned_trajectory()
-        .iter()
-        .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m])
-        .collect();
+        .map(|p| [p.pose_in_map.x_m, p.pose_in_map.y_m]);
     // Once aligned, the EKF's map frame is the `enu` frame itself.
     let placement = ekf
         .frame()
@@ -38,16 +36,18 @@ pub fn publish_ekf(state: &mut LiveState, ekf: &EkfPipeline, image: Option<&GeoI
         placement,
         image,
     );
-    let lon_lat = |xy: [f64; 2]| lon_lat_of(placement, xy);
-    state.landmarks = ekf
-        .landmarks_in_map()
-        .into_iter()
-        .map(|xy| LandmarkView {
-            x_m: xy[0],
-            y_m: xy[1],
-            lat_lon_deg: lon_lat(xy).map(|[lon, lat]| [lat, lon]),
-        })
-        .collect();
+    // Refilled in place: the shown vectors keep their capacity from one call to the next.
+    state.landmarks.clear();
+    state
+        .landmarks
+        .extend(ekf.mapped_landmarks().iter().map(|landmark| {
+            let xy = landmark.position_in_map;
+            LandmarkView {
+                x_m: xy[0],
+                y_m: xy[1],
+                lat_lon_deg: lon_lat_of(placement, xy).map(|[lon, lat]| [lat, lon]),
+            }
+        }));
 }
 
 /// Writes the camera method's estimate into `state`: the pose and path, and the map's points
@@ -180,7 +180,7 @@ fn lon_lat_of(placement: Placement, xy_in_map: [f64; 2]) -> Option<[f64; 2]> {
 fn publish_pose(
     state: &mut LiveState,
     (pose, position_cov_m2, time_s): (Pose2, [f64; 3], f64),
-    trajectory_m: Vec<[f64; 2]>,
+    trajectory_m: impl IntoIterator<Item = [f64; 2]>,
     placement: Placement,
     image: Option<&GeoImage>,
 ) {
@@ -194,11 +194,16 @@ fn publish_pose(
         position_cov_m2,
         time_s,
     };
-    state.trajectory_wgs84 = trajectory_m
-        .iter()
-        .filter_map(|&xy| lon_lat_of(placement, xy))
-        .collect();
-    state.trajectory_m = trajectory_m;
+    // Refilled in place, so a call allocates nothing once the trajectory is at its shown size.
+    state.trajectory_m.clear();
+    state.trajectory_m.extend(trajectory_m);
+    state.trajectory_wgs84.clear();
+    state.trajectory_wgs84.extend(
+        state
+            .trajectory_m
+            .iter()
+            .filter_map(|&xy| lon_lat_of(placement, xy)),
+    );
     state.datum_lat_lon_deg = placement.map(|(f, _)| [f.datum_lat_deg(), f.datum_lon_deg()]);
     state.enu_from_map = placement.map(|(_, enu_from_map)| enu_from_map);
     state.pixel_from_map = match (placement, image) {

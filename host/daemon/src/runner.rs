@@ -40,8 +40,9 @@ use host::slam::GridPipeline;
 
 /// How long a read on the port waits before the reader checks for shutdown and pings.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
-/// The EKF thread refreshes the shown map every this many scans (the pose every scan).
-const EKF_PUBLISH_EVERY_SCANS: u64 = 10;
+/// The EKF thread refreshes the shown pose, trajectory and map at most this often, and at
+/// least this long after an event changed them.
+const EKF_PUBLISH_PERIOD: Duration = Duration::from_millis(200);
 /// The Foxglove stream is refreshed this often.
 const LIVE_PUBLISH_PERIOD: Duration = Duration::from_millis(200);
 
@@ -681,19 +682,24 @@ fn run_ekf(
     state: &RwLock<LiveState>,
     image: Option<&GeoImage>,
 ) -> EkfPipeline {
-    let mut scans_since_publish = 0;
-    for event in rx {
-        pipeline.on_event(&event);
-        if matches!(event, SensorEvent::Scan { .. }) {
-            scans_since_publish += 1;
+    // On wall time, not per event: a replay faster than real time shows no more than a robot.
+    let mut last_publish = Instant::now();
+    let mut changed = false;
+    loop {
+        match rx.recv_timeout(EKF_PUBLISH_PERIOD) {
+            Ok(event) => {
+                pipeline.on_event(&event);
+                changed = true;
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
         }
-        if scans_since_publish >= EKF_PUBLISH_EVERY_SCANS
-            || matches!(event, SensorEvent::Fix { .. })
-        {
-            scans_since_publish = 0;
+        if changed && last_publish.elapsed() >= EKF_PUBLISH_PERIOD {
             if let Ok(mut s) = state.write() {
                 publish_ekf(&mut s, &pipeline, image);
             }
+            last_publish = Instant::now();
+            changed = false;
         }
     }
     pipeline.finish();

@@ -294,7 +294,7 @@ impl EkfPipeline {
 
     /// At most a few thousand poses of the trajectory, evenly spaced, the newest among them:
     /// what a live view draws ([`PoseHistory::thinned`]).
-    pub fn thinned_trajectory(&self) -> Vec<StampedPose> {
+    pub fn thinned_trajectory(&self) -> impl Iterator<Item = StampedPose> + '_ {
         self.trajectory.thinned()
     }
 

@@ -124,15 +124,10 @@ impl PoseHistory {
 
     /// At most [`PoseHistoryOptions::max_shown`] poses evenly spaced in index, the first and
     /// the newest among them: what a view draws.
-    pub fn thinned(&self) -> Vec<StampedPose> {
-        let mut poses = self.shown.clone();
+    pub fn thinned(&self) -> impl Iterator<Item = StampedPose> + '_ {
         let newest_shown = (self.shown.len().saturating_sub(1)) * self.shown_stride;
-        if let Some(last) = self.last()
-            && self.len() > newest_shown + 1
-        {
-            poses.push(last);
-        }
-        poses
+        let newest = self.last().filter(|_| self.len() > newest_shown + 1);
+        self.shown.iter().copied().chain(newest)
     }
 
     /// Re-expresses every pose held, as `new_from_old ∘ pose` (the map frame changed). Should
@@ -317,7 +312,7 @@ mod tests {
             assert!((got.pose_in_map.y_m - want.pose_in_map.y_m).abs() < 1e-9);
         }
         assert_eq!(all.len(), 51);
-        let first_shown = history.thinned()[0];
+        let first_shown = history.thinned().next().unwrap();
         assert!((first_shown.pose_in_map.x_m - 10.0).abs() < 1e-9);
     }
 
@@ -357,7 +352,7 @@ mod tests {
         let mut history = PoseHistory::new(small());
         for k in 0..1_000 {
             history.push(pose(k));
-            let shown = history.thinned();
+            let shown: Vec<StampedPose> = history.thinned().collect();
             assert!(shown.len() <= 10 + 1, "{} shown", shown.len());
             assert_eq!(shown[0], pose(0));
             assert_eq!(*shown.last().unwrap(), pose(k));
