@@ -18,9 +18,11 @@ pub(crate) struct StateJson<'a> {
     pose: &'a PoseView,
     /// Link and sensor counters.
     counters: &'a LinkCounters,
-    /// Trajectory in the map frame, `[x_m, y_m]`.
+    /// Trajectory in the map frame, `[x_m, y_m]`, to the millimetre.
+    #[serde(serialize_with = "to_millimetres")]
     trajectory_m: &'a [[f64; 2]],
-    /// Trajectory in WGS84, `[lon_deg, lat_deg]`.
+    /// Trajectory in WGS84, `[lon_deg, lat_deg]`, to 1e-8° (about a millimetre).
+    #[serde(serialize_with = "to_hundred_millionths")]
     trajectory_wgs84: &'a [[f64; 2]],
     /// Landmarks of the built map.
     landmarks: &'a [LandmarkView],
@@ -37,6 +39,32 @@ pub(crate) struct StateJson<'a> {
     /// The camera's last frame and what the camera method made of it; the frame itself is
     /// at `/api/camera.jpg`.
     camera: Option<&'a CameraStatus>,
+}
+
+/// Points rounded to `1 / per_unit`: the page draws them, and twice a second the full
+/// seventeen digits of each would more than double the body.
+fn rounded_points<S: serde::Serializer>(
+    points: &[[f64; 2]],
+    per_unit: f64,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    // `+ 0.0` writes a negative zero as `0.0`.
+    let round = |v: f64| (v * per_unit).round() / per_unit + 0.0;
+    serializer.collect_seq(points.iter().map(|&[a, b]| [round(a), round(b)]))
+}
+
+fn to_millimetres<S: serde::Serializer>(
+    points: &&[[f64; 2]],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    rounded_points(points, 1e3, serializer)
+}
+
+fn to_hundred_millionths<S: serde::Serializer>(
+    points: &&[[f64; 2]],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    rounded_points(points, 1e8, serializer)
 }
 
 /// Where the occupancy grid lies, without its pixels.
@@ -117,5 +145,20 @@ mod tests {
         assert_eq!(grid["origin_m"], serde_json::json!([-1.0, -2.0]));
         assert_eq!(grid["size_cells"], serde_json::json!([40, 20]));
         assert!(grid.get("png").is_none());
+    }
+
+    #[test]
+    fn test_trajectories_are_rounded_to_about_a_millimetre() {
+        let state = LiveState {
+            trajectory_m: vec![[12.345_678_9, -0.000_4]],
+            trajectory_wgs84: vec![[7.834_567_891_23, 48.012_345_678_9]],
+            ..LiveState::default()
+        };
+        let json = serde_json::to_string(&StateJson::from(&state)).unwrap();
+        assert!(json.contains(r#""trajectory_m":[[12.346,0.0]]"#), "{json}");
+        assert!(
+            json.contains(r#""trajectory_wgs84":[[7.83456789,48.01234568]]"#),
+            "{json}"
+        );
     }
 }
