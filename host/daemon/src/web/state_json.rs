@@ -41,8 +41,8 @@ pub(crate) struct StateJson<'a> {
     camera: Option<&'a CameraStatus>,
 }
 
-/// Points rounded to `1 / per_unit`: the page draws them, and twice a second the full
-/// seventeen digits of each would more than double the body.
+/// Points rounded to `1 / per_unit`: the page only draws them, and the page asks twice a
+/// second; seventeen digits a number take about twice the bytes.
 fn rounded_points<S: serde::Serializer>(
     points: &[[f64; 2]],
     per_unit: f64,
