@@ -638,7 +638,9 @@ impl EkfState {
     }
 
     /// [`Self::update`] with the Jacobian given by its non-zero entries `(row, column,
-    /// value)`, in row-major order, so no dense `m × n` Jacobian is formed.
+    /// value)`, so no dense `m × n` Jacobian is formed. Entries may come in any order and
+    /// repeated ones add up; in row-major order, columns ascending, the result is
+    /// [`Self::update`]'s to the bit.
     ///
     /// # Errors
     /// As [`Self::update`]; an entry outside `m × n` is a dimension mismatch.
@@ -884,18 +886,9 @@ mod tests {
     }
 
     #[test]
-    fn sparse_update_equals_the_dense_one() {
-        let n = correlated_state().dim();
-        let mut h = DMatrix::zeros(2, n);
-        h[(0, 0)] = -0.8;
-        h[(0, 2)] = 0.3;
-        h[(0, 5)] = 0.8;
-        h[(1, 1)] = -1.1;
-        h[(1, 6)] = 1.1;
-        let innovation = DVector::from_column_slice(&[0.2, -0.1]);
-        let r = DMatrix::identity(2, 2) * 0.04;
-        let mut dense = correlated_state();
-        dense.update(&innovation, &h, &r).unwrap();
+    fn sparse_update_is_the_textbook_update() {
+        let before = correlated_state();
+        let n = before.dim();
         let nonzeros = [
             (0, 0, -0.8),
             (0, 2, 0.3),
@@ -903,9 +896,39 @@ mod tests {
             (1, 1, -1.1),
             (1, 6, 1.1),
         ];
-        let mut sparse = correlated_state();
+        let innovation = DVector::from_column_slice(&[0.2, -0.1]);
+        let r = DMatrix::identity(2, 2) * 0.04;
+        let mut sparse = before.clone();
         sparse.update_sparse(&innovation, &nonzeros, &r).unwrap();
-        assert_eq!(sparse, dense);
+
+        // K = P Hᵀ S⁻¹, x⁺ = x + K ν, P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ, all dense.
+        let mut h = DMatrix::zeros(2, n);
+        for &(row, col, value) in &nonzeros {
+            h[(row, col)] = value;
+        }
+        let p = before.covariance();
+        let s = &h * p * h.transpose() + &r;
+        let k = p * h.transpose() * s.try_inverse().unwrap();
+        let mut mean = before.mean() + &k * &innovation;
+        mean[THETA] = wrap_angle_rad(mean[THETA]);
+        let i_kh = DMatrix::identity(n, n) - &k * &h;
+        let covariance = &i_kh * p * i_kh.transpose() + &k * &r * k.transpose();
+        assert!((sparse.mean() - mean).amax() < 1e-12);
+        assert!((sparse.covariance() - covariance).amax() < 1e-12);
+
+        // The same entries in another order, one of them split in two, give the same update.
+        let shuffled = [
+            (1, 6, 1.1),
+            (0, 5, 0.8),
+            (0, 0, -0.5),
+            (1, 1, -1.1),
+            (0, 2, 0.3),
+            (0, 0, -0.3),
+        ];
+        let mut reordered = before.clone();
+        reordered.update_sparse(&innovation, &shuffled, &r).unwrap();
+        assert!((reordered.covariance() - sparse.covariance()).amax() < 1e-12);
+
         let outside = [(0, n, 1.0)];
         assert!(matches!(
             sparse.update_sparse(&innovation, &outside, &r),

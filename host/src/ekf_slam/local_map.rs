@@ -255,12 +255,19 @@ impl LocalMap {
                 target.and_then(|t| candidates[i].iter().find(|c| c.target == t).map(|c| (i, c)))
             })
             .collect();
-        // The Jacobian by its non-zero entries, row by row (the blocks are in column order).
+        // The Jacobian by its non-zero entries, row by row; the blocks (pose, then landmark)
+        // are in column order and apart, so the update is the dense Jacobian's to the bit.
         let m = 2 * pairs.len();
         let mut nonzeros = Vec::with_capacity(m * 5);
         let mut innovation = DVector::zeros(m);
         let mut r = DMatrix::zeros(m, m);
         for (pair, (_, candidate)) in pairs.iter().enumerate() {
+            debug_assert!(
+                candidate
+                    .jacobian
+                    .windows(2)
+                    .all(|w| w[0].column + w[0].matrix.ncols() <= w[1].column)
+            );
             for within in 0..2 {
                 for block in &candidate.jacobian {
                     for k in 0..block.matrix.ncols() {
