@@ -40,8 +40,8 @@ use host::slam::GridPipeline;
 
 /// How long a read on the port waits before the reader checks for shutdown and pings.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
-/// The EKF thread refreshes the shown pose, trajectory and map at most this often, and at
-/// least this long after an event changed them.
+/// The EKF thread refreshes the shown pose, trajectory and map at most this often, and shows
+/// a change at most this long after it.
 const EKF_PUBLISH_PERIOD: Duration = Duration::from_millis(200);
 /// The Foxglove stream is refreshed this often.
 const LIVE_PUBLISH_PERIOD: Duration = Duration::from_millis(200);
@@ -686,7 +686,14 @@ fn run_ekf(
     let mut last_publish = Instant::now();
     let mut changed = false;
     loop {
-        match rx.recv_timeout(EKF_PUBLISH_PERIOD) {
+        // Unchanged, wait for the next event; changed, only until the change is due.
+        let next = if changed {
+            let due = (last_publish + EKF_PUBLISH_PERIOD).saturating_duration_since(Instant::now());
+            rx.recv_timeout(due)
+        } else {
+            rx.recv().map_err(|_| RecvTimeoutError::Disconnected)
+        };
+        match next {
             Ok(event) => {
                 pipeline.on_event(&event);
                 changed = true;
