@@ -15,6 +15,7 @@ pub mod emulators;
 pub mod executor;
 pub mod faults;
 pub mod landmark_sim;
+pub mod memory_map;
 pub mod nees;
 pub mod proc_status;
 pub mod pty;

@@ -42,6 +42,7 @@ use serde::Serialize;
 
 use crate::demo::DaemonSetup;
 use crate::faults::{FaultSpec, GpsOutage};
+use crate::memory_map::ResidentByKind;
 use crate::proc_status::status_field;
 use crate::run::{RunOptions, RunSummary, run_relayed};
 use crate::world::WorldKind;
@@ -124,6 +125,8 @@ pub struct SoakSample {
     pub peak_rss_kib: u64,
     /// Threads.
     pub threads: u64,
+    /// Where the resident memory lies (`/proc/PID/smaps`, read just after `VmRSS`).
+    pub resident: ResidentByKind,
     /// Whether the high-water mark was reset after this reading.
     pub mark_reset: bool,
 }
@@ -174,6 +177,13 @@ pub struct SoakReport {
     pub high_water_mark_resets: bool,
     /// Peak over the memory after the first minute.
     pub peak_over_first_minute: f64,
+    /// Where the resident memory lay after the first minute.
+    pub resident_after_first_minute: ResidentByKind,
+    /// Where it lay once the daemon had the last frame.
+    pub resident_at_end: ResidentByKind,
+    /// The median resident memory over each quarter of the simulated time from the first
+    /// minute on, KiB: what stays, without the passing peaks of single samples.
+    pub rss_median_by_quarter_kib: [u64; 4],
     /// Goal requests with a 10 MiB body sent.
     pub oversized_requests: u64,
     /// How many of them were answered `413 Payload Too Large`.
@@ -371,6 +381,8 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         highest_rss_kib(samples.iter().filter(|s| s.wall_s > settled.wall_s)).max(settled.rss_kib);
     let peak_rss_since_start_kib = highest_rss_kib(&samples);
     let peak_over_first_minute = peak_rss_kib as f64 / settled.rss_kib.max(1) as f64;
+    let rss_median_by_quarter_kib =
+        median_rss_by_quarter_kib(&samples, settled.sim_s, options.duration_s);
 
     let mut failures = Vec::new();
     if !simulation.accounting_balanced {
@@ -425,6 +437,9 @@ pub fn run(options: &SoakOptions, mut progress: impl FnMut(&SoakSample)) -> io::
         peak_rss_since_start_kib,
         high_water_mark_resets: samples.iter().all(|s| s.mark_reset),
         peak_over_first_minute,
+        resident_after_first_minute: settled.resident,
+        resident_at_end: last.resident,
+        rss_median_by_quarter_kib,
         oversized_requests,
         oversized_requests_413,
         threads_after_first_minute: settled.threads,
@@ -521,6 +536,7 @@ impl Drop for DaemonProcess {
 fn take_sample(pid: u32, web: SocketAddr, started: Instant) -> io::Result<SoakSample> {
     let state = api_state(web)?;
     let status = fs::read_to_string(format!("/proc/{pid}/status"))?;
+    let resident = ResidentByKind::of_process(pid)?;
     let mark_reset = fs::write(format!("/proc/{pid}/clear_refs"), "5").is_ok();
     let field = |name: &str| {
         status_field(&status, name)
@@ -533,6 +549,7 @@ fn take_sample(pid: u32, web: SocketAddr, started: Instant) -> io::Result<SoakSa
         rss_kib: field("VmRSS:")?,
         peak_rss_kib: field("VmHWM:")?,
         threads: field("Threads:")?,
+        resident,
         mark_reset,
     })
 }
@@ -633,15 +650,45 @@ fn check_recording(path: &Path, daemon_frames: u64, allowed: u64) -> RecordingCh
     }
 }
 
+/// The median resident memory of the samples in each quarter of the simulated time from
+/// `from_s` to `to_s`, KiB (0 for a quarter without samples).
+fn median_rss_by_quarter_kib(samples: &[SoakSample], from_s: f64, to_s: f64) -> [u64; 4] {
+    let quarter_s = (to_s - from_s) / 4.0;
+    std::array::from_fn(|quarter| {
+        let start_s = from_s + quarter as f64 * quarter_s;
+        let mut rss: Vec<u64> = samples
+            .iter()
+            .filter(|s| s.sim_s >= start_s && s.sim_s < start_s + quarter_s)
+            .map(|s| s.rss_kib)
+            .collect();
+        rss.sort_unstable();
+        rss.get(rss.len() / 2).copied().unwrap_or(0)
+    })
+}
+
 /// Writes the samples as a table: one line per sample.
 fn write_samples(path: &Path, samples: &[SoakSample]) -> io::Result<()> {
     let mut out = io::BufWriter::new(fs::File::create(path)?);
-    writeln!(out, "wall_s\tsim_s\tframes\trss_kib\tpeak_rss_kib\tthreads")?;
+    writeln!(
+        out,
+        "wall_s\tsim_s\tframes\trss_kib\tpeak_rss_kib\tthreads\texecutable_kib\tlibraries_kib\t\
+         heap_kib\tother_anonymous_kib"
+    )?;
     for s in samples {
+        let r = &s.resident;
         writeln!(
             out,
-            "{:.1}\t{:.1}\t{}\t{}\t{}\t{}",
-            s.wall_s, s.sim_s, s.frames, s.rss_kib, s.peak_rss_kib, s.threads
+            "{:.1}\t{:.1}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+            s.wall_s,
+            s.sim_s,
+            s.frames,
+            s.rss_kib,
+            s.peak_rss_kib,
+            s.threads,
+            r.executable_kib,
+            r.libraries_kib,
+            r.heap_kib,
+            r.other_anonymous_kib
         )?;
     }
     out.flush()
@@ -661,5 +708,42 @@ mod tests {
         assert!(faults.link_replugs_s.iter().all(|&t| t < 3600.0));
         let parsed: FaultSpec = faults.to_string().parse().unwrap();
         assert_eq!(parsed, faults);
+    }
+
+    fn sample(sim_s: f64, rss_kib: u64) -> SoakSample {
+        SoakSample {
+            wall_s: 0.0,
+            sim_s,
+            frames: 0,
+            rss_kib,
+            peak_rss_kib: rss_kib,
+            threads: 1,
+            resident: ResidentByKind::default(),
+            mark_reset: true,
+        }
+    }
+
+    #[test]
+    fn medians_are_taken_per_quarter_after_the_first_minute() {
+        // Before the first minute, and one passing peak in the second quarter.
+        let samples: Vec<SoakSample> = [
+            (10.0, 99_000),
+            (60.0, 100),
+            (70.0, 102),
+            (80.0, 101),
+            (110.0, 200),
+            (120.0, 9_000),
+            (130.0, 201),
+            (160.0, 300),
+            (210.0, 400),
+        ]
+        .iter()
+        .map(|&(t, rss)| sample(t, rss))
+        .collect();
+        assert_eq!(
+            median_rss_by_quarter_kib(&samples, 60.0, 260.0),
+            [101, 201, 300, 400]
+        );
+        assert_eq!(median_rss_by_quarter_kib(&samples, 1000.0, 2000.0), [0; 4]);
     }
 }
