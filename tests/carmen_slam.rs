@@ -42,6 +42,7 @@ fn options_without_odometry(
         reference: None,
         slam: SlamOptions::default(),
         first_scans,
+        check_tracking: false,
     }
 }
 
@@ -174,6 +175,55 @@ fn orebro_closes_its_loop_after_scans_tracking_could_not_place() {
     assert_eq!(revisits.count, 24, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 1.0, "{revisits:?}");
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The tracking check scores the reference's motion into every scan beside what tracking
+/// chose, and changes nothing of what tracking does: orebro's first 40 scans (the corridor
+/// of scans 16–17 among them) give the same trajectory with it and without it.
+#[test]
+fn the_tracking_check_scores_the_reference_and_changes_nothing() {
+    let test = "the_tracking_check_scores_the_reference_and_changes_nothing";
+    let Some((plain, plain_out)) = replay("orebro", Some(40), test) else {
+        return;
+    };
+    let Some(reference) = datasets::require("benchmark/orebro.reference.tsv", test) else {
+        return;
+    };
+    let Some(clf) = datasets::require("benchmark/orebro.clf", test) else {
+        return;
+    };
+    let mut options = SlamReplayOptions {
+        reference: Some(reference),
+        check_tracking: true,
+        ..options_without_odometry("orebro", clf, Some(40))
+    };
+    options
+        .out
+        .set_file_name(format!("carmen-orebro-checked-{}", std::process::id()));
+    let checked = replay_carmen_slam(&options).expect("replay with the check");
+    let trajectory = |out: &PathBuf| std::fs::read_to_string(out.join("trajectory.tsv")).unwrap();
+    assert_eq!(trajectory(&plain_out), trajectory(&options.out));
+    assert!(plain.tracking_check.is_none());
+    let check = checked.tracking_check.expect("a tracking check");
+    // Every scan but the first has the scan before it in the reference.
+    assert_eq!(check.scans_checked, 39, "{check:?}");
+    assert!(check.chose_elsewhere > 0, "{check:?}");
+    assert_eq!(
+        check.chose_elsewhere,
+        check.reference_scored_higher + check.reference_scored_lower + check.reference_refused
+    );
+    let table = std::fs::read_to_string(options.out.join("tracking_check.tsv")).unwrap();
+    let rows: Vec<Vec<&str>> = table
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    assert_eq!(rows.len(), 39);
+    assert!(rows.iter().all(|r| r.len() == 13), "{table}");
+    let elsewhere = rows.iter().filter(|r| r[12] == "1").count();
+    assert_eq!(elsewhere, check.chose_elsewhere);
+    let _ = std::fs::remove_dir_all(&plain_out);
+    let _ = std::fs::remove_dir_all(&options.out);
 }
 
 /// `bench-slam` over the whole benchmark directory, each log cut to its first scans: one row

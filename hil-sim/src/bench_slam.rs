@@ -174,6 +174,7 @@ pub fn bench_slam(
             reference: beside("reference.tsv"),
             slam: SlamOptions::default(),
             first_scans: options.first_scans,
+            check_tracking: false,
         };
         let summary = replay_carmen_slam(&replay).map_err(|source| BenchSlamError::Log {
             log: log.clone(),

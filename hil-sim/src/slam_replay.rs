@@ -13,7 +13,12 @@
 //!   percentiles, the run's end, and the last 1 000 scans against the first), what the pipeline
 //!   did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
 //!   2009); for a relations file, also which of its relations the log's own scans dispute and
-//!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]).
+//!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]);
+//! * with [`SlamReplayOptions::check_tracking`] and a reference, `tracking_check.tsv`: for
+//!   every scan, the motion tracking chose and the reference's, each with its score as a
+//!   candidate ([`host::slam::TrackingCheck`]), and their count in `summary.json`
+//!   (`tracking_check`): where tracking chose elsewhere, whether the search missed the
+//!   reference's pose, that pose scored lower, or it scored as a pose tracking refuses.
 
 use std::fs;
 use std::io::{self, BufWriter, Write};
@@ -27,7 +32,7 @@ use host::evaluation::{
 use host::geometry::Pose2;
 use host::grid::{MapExport, MapExportOptions};
 use host::scan_match::Scan;
-use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions, SlamStats};
+use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions, SlamStats, TrackingCheck};
 use serde::Serialize;
 
 use crate::replay::{CarmenLog, LaserRecord, LogError, read_reference, read_relations};
@@ -56,6 +61,32 @@ pub struct SlamReplayOptions {
     pub slam: SlamOptions,
     /// Only the log's first this many scans (a short run); `None` takes them all.
     pub first_scans: Option<usize>,
+    /// With a reference: score the reference's motion into every scan as tracking scores
+    /// its candidates, and write `tracking_check.tsv` (see the [module documentation](self)).
+    pub check_tracking: bool,
+}
+
+/// A motion tracking chose this far from the reference's (or farther) counts as elsewhere
+/// in [`TrackingCheckSummary`]: translation (m), rotation (rad).
+pub const CHOSE_ELSEWHERE_BEYOND: [f64; 2] = [0.3, 0.0524];
+
+/// What the tracking check found ([`SlamReplayOptions::check_tracking`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct TrackingCheckSummary {
+    /// Scans whose motion from the scan before the reference gives.
+    pub scans_checked: usize,
+    /// Of those, where tracking chose a motion farther than [`CHOSE_ELSEWHERE_BEYOND`] from
+    /// the reference's.
+    pub chose_elsewhere: usize,
+    /// Of those, where the reference's motion scored higher than every candidate, and high
+    /// enough to be taken: the search did not reach it.
+    pub reference_scored_higher: usize,
+    /// Of those, where it scored lower than the best candidate, though high enough to be
+    /// taken: the score preferred a wrong pose.
+    pub reference_scored_lower: usize,
+    /// Of those, where it scored as a pose tracking refuses (at most 0): the scan fits the
+    /// submap too little there to be placed at all.
+    pub reference_refused: usize,
 }
 
 /// `summary.json`.
@@ -90,6 +121,9 @@ pub struct SlamReplaySummary {
     /// Error on revisits of the reference (scans at least 50 apart within 2 m and 45°).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_revisits: Option<RelationEvaluation>,
+    /// What the tracking check found, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracking_check: Option<TrackingCheckSummary>,
 }
 
 /// How a run's time was spent: whether a scan costs more as the map grows.
@@ -209,6 +243,39 @@ pub fn replay_carmen_slam(
         .map(|l| scan_of(l, options.no_return_from_m))
         .collect();
 
+    let reference: Option<Trajectory> = match &options.reference {
+        Some(path) => Some(
+            read_reference(path)?
+                .iter()
+                .map(|r| {
+                    let p = r.pose;
+                    StampedPose::new(r.timestamp_s, Pose2::new(p.x_m, p.y_m, p.theta_rad))
+                })
+                .collect(),
+        ),
+        None => None,
+    };
+    let pairing = PairingOptions::default();
+    // For every scan, the reference's motion into it from the scan before, when checked.
+    let motions_to_check: Vec<Option<Pose2>> = match (&reference, options.check_tracking) {
+        (Some(reference), true) => {
+            let pose_at = |laser: &LaserRecord| {
+                reference
+                    .pose_near(laser.timestamp_s, pairing.timestamp_tolerance_s)
+                    .map(|p| p.pose_in_map)
+            };
+            let poses: Vec<Option<Pose2>> = lasers.iter().map(|l| pose_at(l)).collect();
+            std::iter::once(None)
+                .chain(poses.windows(2).map(|pair| match pair {
+                    [Some(before), Some(at)] => Some(before.inverse() * *at),
+                    _ => None,
+                }))
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    let mut checks: Vec<Option<TrackingCheck>> = Vec::with_capacity(motions_to_check.len());
+
     let started = Instant::now();
     let mut pipeline = GridPipeline::new(GridPipelineOptions {
         slam: options.slam.clone(),
@@ -216,14 +283,21 @@ pub fn replay_carmen_slam(
         ..GridPipelineOptions::default()
     })?;
     let mut scan_s = Vec::with_capacity(scans.len());
-    for (laser, scan) in lasers.iter().zip(&scans) {
+    for (index, (laser, scan)) in lasers.iter().zip(&scans).enumerate() {
         let odometry = options.odometry.then(|| {
             let p = laser.robot_pose;
             Pose2::new(p.x_m, p.y_m, p.theta_rad)
         });
+        let motion_to_check = motions_to_check.get(index).copied().flatten();
+        if let Some(motion) = motion_to_check {
+            pipeline.check_next_motion(motion);
+        }
         let adding = Instant::now();
         pipeline.add_scan(laser.timestamp_s, scan, odometry);
         scan_s.push(adding.elapsed().as_secs_f64());
+        if !motions_to_check.is_empty() {
+            checks.push(motion_to_check.and(pipeline.last_check().copied()));
+        }
     }
     let finishing = Instant::now();
     pipeline.finish();
@@ -239,6 +313,14 @@ pub fn replay_carmen_slam(
     let trajectory_path = options.out.join("trajectory.tsv");
     write_trajectory(&trajectory_path, &lasers, &poses_in_map, pipeline.lost())
         .map_err(write_error(&trajectory_path))?;
+    let tracking_check = if motions_to_check.is_empty() {
+        None
+    } else {
+        let path = options.out.join("tracking_check.tsv");
+        write_tracking_check(&path, &lasers, &checks, pipeline.lost())
+            .map_err(write_error(&path))?;
+        Some(TrackingCheckSummary::of(checks.iter().flatten()))
+    };
     // The map holds the beams the SLAM trusted.
     let global_grid = pipeline.global_grid();
     let export = MapExport::from_grid(&global_grid, &MapExportOptions::default());
@@ -259,7 +341,6 @@ pub fn replay_carmen_slam(
         .zip(&poses_in_map)
         .map(|(l, pose)| StampedPose::new(l.timestamp_s, *pose))
         .collect();
-    let pairing = PairingOptions::default();
     let scan_at = |t_s: f64| {
         let index = lasers
             .iter()
@@ -279,16 +360,9 @@ pub fn replay_carmen_slam(
         }
         None => (None, None),
     };
-    let (reference_consecutive, reference_revisits) = match &options.reference {
-        Some(path) => {
-            let reference: Trajectory = read_reference(path)?
-                .iter()
-                .map(|r| {
-                    let p = r.pose;
-                    StampedPose::new(r.timestamp_s, Pose2::new(p.x_m, p.y_m, p.theta_rad))
-                })
-                .collect();
-            let built = ReferenceRelations::build(&reference, &ReferenceRelationOptions::default());
+    let (reference_consecutive, reference_revisits) = match &reference {
+        Some(reference) => {
+            let built = ReferenceRelations::build(reference, &ReferenceRelationOptions::default());
             let (consecutive, revisits) = built.relations.split_at(built.consecutive);
             (
                 Some(evaluate_relations(consecutive, &trajectory, &pairing)),
@@ -311,6 +385,7 @@ pub fn replay_carmen_slam(
         relations_agreement,
         reference_consecutive,
         reference_revisits,
+        tracking_check,
     };
     let summary_path = options.out.join("summary.json");
     let json = serde_json::to_string_pretty(&summary).map_err(io::Error::other);
@@ -341,6 +416,71 @@ fn write_trajectory(
             pose.y_m,
             pose.theta_rad,
             u8::from(lost)
+        )?;
+    }
+    out.flush()
+}
+
+impl TrackingCheckSummary {
+    /// The counts over `checks`.
+    pub fn of<'a>(checks: impl IntoIterator<Item = &'a TrackingCheck>) -> Self {
+        let [max_m, max_rad] = CHOSE_ELSEWHERE_BEYOND;
+        let mut summary = TrackingCheckSummary::default();
+        for check in checks {
+            summary.scans_checked += 1;
+            if check.chose_elsewhere(max_m, max_rad) {
+                summary.chose_elsewhere += 1;
+                if check.checked_score.is_none_or(|score| score <= 0.0) {
+                    summary.reference_refused += 1;
+                } else if check.checked_scores_higher() {
+                    summary.reference_scored_higher += 1;
+                } else {
+                    summary.reference_scored_lower += 1;
+                }
+            }
+        }
+        summary
+    }
+}
+
+/// Writes `tracking_check.tsv`: one line per scan checked.
+fn write_tracking_check(
+    path: &Path,
+    lasers: &[&LaserRecord],
+    checks: &[Option<TrackingCheck>],
+    lost: &[bool],
+) -> io::Result<()> {
+    let mut out = BufWriter::new(fs::File::create(path)?);
+    writeln!(
+        out,
+        "# timestamp chosen_x_m chosen_y_m chosen_theta_deg reference_x_m reference_y_m \
+         reference_theta_deg best_score reference_score reference_surface_fraction \
+         reference_free_fraction lost elsewhere (motions from the scan before, in its frame; \
+         scores as tracking scores a candidate, nan where there was none)"
+    )?;
+    let [max_m, max_rad] = CHOSE_ELSEWHERE_BEYOND;
+    for (index, (laser, check)) in lasers.iter().zip(checks).enumerate() {
+        let Some(check) = check else {
+            continue;
+        };
+        let (chosen, reference) = (check.chosen_motion, check.checked_motion);
+        let fit = check.checked_fit;
+        writeln!(
+            out,
+            "{} {:.3} {:.3} {:.2} {:.3} {:.3} {:.2} {:.3} {:.3} {:.3} {:.3} {} {}",
+            laser.timestamp_text,
+            chosen.x_m,
+            chosen.y_m,
+            host::geometry::wrap_angle_rad(chosen.theta_rad).to_degrees(),
+            reference.x_m,
+            reference.y_m,
+            host::geometry::wrap_angle_rad(reference.theta_rad).to_degrees(),
+            check.best_score.unwrap_or(f64::NAN),
+            check.checked_score.unwrap_or(f64::NAN),
+            fit.map_or(f64::NAN, |f| f.surface_fraction),
+            fit.map_or(f64::NAN, |f| f.free_fraction),
+            u8::from(lost.get(index).copied().unwrap_or(false)),
+            u8::from(check.chose_elsewhere(max_m, max_rad)),
         )?;
     }
     out.flush()

@@ -42,6 +42,13 @@ pub struct ReplayCarmenArgs {
     /// covered).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     first_scans: Option<u64>,
+    /// With a reference trajectory: score the reference's motion into every scan as local
+    /// tracking scores its candidates, and write OUT/tracking_check.tsv (the motion chosen
+    /// and the reference's, with their scores) and `tracking_check` in summary.json: where
+    /// tracking chose elsewhere (0.3 m or 3° away), whether its search missed the
+    /// reference's pose, that pose scored lower, or it scored as a pose tracking refuses.
+    #[arg(long)]
+    check_tracking: bool,
     /// Disable loop closure (local tracking only).
     #[arg(long)]
     no_loop_closure: bool,
@@ -109,7 +116,15 @@ pub fn run(args: ReplayCarmenArgs) -> CliResult {
         first_scans: args
             .first_scans
             .map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
+        check_tracking: args.check_tracking,
     };
+    if options.check_tracking && options.reference.is_none() {
+        return Err(
+            "--check-tracking needs a reference trajectory (--reference, or \
+                    LOG.reference.tsv beside the log)"
+                .into(),
+        );
+    }
     let summary = hil_sim::slam_replay::replay_carmen_slam(&options)?;
     println!("{}", serde_json::to_string_pretty(&summary)?);
     eprintln!(

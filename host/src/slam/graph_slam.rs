@@ -17,6 +17,7 @@ use super::options::SlamOptions;
 use super::settled_submaps::SettledSubmaps;
 use super::slam_submap::SlamSubmap;
 use super::slam_timings::{SlamTimings, seconds_since};
+use super::tracking_check::TrackingCheck;
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{
@@ -170,6 +171,8 @@ pub struct GraphSlam {
     node_index: NodeIndex,
     stats: SlamStats,
     timings: SlamTimings,
+    /// The last scan's [`TrackedScan::check`](super::TrackedScan::check).
+    last_check: Option<TrackingCheck>,
 }
 
 impl GraphSlam {
@@ -203,8 +206,22 @@ impl GraphSlam {
             node_index: NodeIndex::new(options.chain_closure.search.max_distance_m.max(1.0)),
             stats: SlamStats::default(),
             timings: SlamTimings::default(),
+            last_check: None,
             options,
         })
+    }
+
+    /// Has the next scan's tracking score `motion_from_last_scan` beside its candidates
+    /// ([`LocalTracker::check_next_motion`]); the result is [`Self::last_check`] after
+    /// [`Self::add_scan`].
+    pub fn check_next_motion(&mut self, motion_from_last_scan: Pose2) {
+        self.tracker.check_next_motion(motion_from_last_scan);
+    }
+
+    /// The check the last scan's tracking made, if one was asked for it
+    /// ([`Self::check_next_motion`]).
+    pub fn last_check(&self) -> Option<&TrackingCheck> {
+        self.last_check.as_ref()
     }
 
     /// Adds `scan` (end points in the robot frame) taken at `time_s`, with the odometry pose
@@ -213,6 +230,7 @@ impl GraphSlam {
         let started = Instant::now();
         let scan = self.options.trusted_beams(scan);
         let tracked = self.tracker.track(time_s, &scan, odometry);
+        self.last_check = tracked.check;
         self.stats.scans += 1;
         self.stats.wide_searches += usize::from(tracked.searched);
         self.stats.every_heading_searches += usize::from(tracked.searched_every_heading);

@@ -9,7 +9,7 @@ use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::link::SensorEvent;
 use crate::scan_match::{Scan, ScanMatchError};
-use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats, SlamTimings};
+use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats, SlamTimings, TrackingCheck};
 
 /// How the pipeline runs.
 #[derive(Debug, Clone)]
@@ -103,6 +103,19 @@ impl GridPipeline {
         self.last_pose = slam.add_scan(time_s, scan, odometry);
         self.times_s.push(time_s);
         self.last_pose
+    }
+
+    /// Has the next scan's tracking score `motion_from_last_scan` (a reference trajectory's)
+    /// beside its candidates ([`GraphSlam::check_next_motion`]).
+    pub fn check_next_motion(&mut self, motion_from_last_scan: Pose2) {
+        if let Some(slam) = self.slam.as_mut() {
+            slam.check_next_motion(motion_from_last_scan);
+        }
+    }
+
+    /// The check the last scan's tracking made, if one was asked for it.
+    pub fn last_check(&self) -> Option<&TrackingCheck> {
+        self.slam.as_ref().and_then(GraphSlam::last_check)
     }
 
     /// The robot's pose in the map frame after the last scan.

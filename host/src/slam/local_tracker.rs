@@ -56,6 +56,7 @@ use super::motion_prior::MotionPrior;
 use super::options::SlamOptions;
 use super::recent_scans::RecentScans;
 use super::slam_submap::{SlamSubmap, SubmapFit};
+use super::tracking_check::TrackingCheck;
 use super::window_matcher::window_matcher;
 use crate::geometry::Pose2;
 use crate::scan_match::{FastMatcher, Scan};
@@ -107,6 +108,9 @@ pub struct TrackedScan {
     /// The submaps this scan finished, to keep for loop closure: the older active one when
     /// the newer is full, or both when the scan was lost and tracking started afresh.
     pub finished_submaps: Vec<SlamSubmap>,
+    /// The motion [`LocalTracker::check_next_motion`] asked to be scored, beside what was
+    /// chosen; `None` when none was asked, and for the first scan.
+    pub check: Option<TrackingCheck>,
 }
 
 /// A scan aligned on the older active submap.
@@ -143,6 +147,8 @@ pub struct LocalTracker {
     /// m².
     unmeasured_m2: f64,
     next_node: usize,
+    /// The motion the next scan is to be checked at ([`Self::check_next_motion`]).
+    motion_to_check: Option<Pose2>,
 }
 
 impl LocalTracker {
@@ -187,8 +193,16 @@ impl LocalTracker {
             last_time_s: None,
             unmeasured_m2: 0.0,
             next_node: 0,
+            motion_to_check: None,
             options,
         })
+    }
+
+    /// Has the next [`Self::track`] score `motion_from_last_scan` (the motion from the last
+    /// scan's pose, in its frame: a reference trajectory's) as it scores its candidates, and
+    /// report it in [`TrackedScan::check`] ([`super::tracking_check`]).
+    pub fn check_next_motion(&mut self, motion_from_last_scan: Pose2) {
+        self.motion_to_check = Some(motion_from_last_scan);
     }
 
     /// Places `scan` (beam end points in the robot frame), taken at `time_s`, in the local
@@ -199,6 +213,7 @@ impl LocalTracker {
             _ => None,
         };
         self.last_odometry = odometry;
+        let motion_to_check = self.motion_to_check.take();
         if let Some(last_time_s) = self.last_time_s.replace(time_s) {
             self.prior.set_interval(time_s - last_time_s);
         }
@@ -219,6 +234,7 @@ impl LocalTracker {
                 ambiguity_in_robot: Matrix3::zeros(),
                 confidence: 1.0,
                 finished_submaps: Vec::new(),
+                check: None,
             };
         };
         let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
@@ -279,6 +295,15 @@ impl LocalTracker {
                 }
             }
         }
+        // Scored before the scan goes into the submap.
+        let checked = motion_to_check.map(|motion| {
+            let scored = self.active.first().and_then(|submap| {
+                let pose_in_submap = submap.pose_in_local().inverse() * (last_pose * motion);
+                self.score_pose(&points, pose_in_submap, predicted)
+            });
+            (motion, scored)
+        });
+        let best_score = best.map(|a| a.score);
         // A candidate the prior makes less likely than its fit makes it right is refused.
         let best = best.filter(|a| a.score > 0.0);
         let lost = best.is_none();
@@ -331,6 +356,13 @@ impl LocalTracker {
             ambiguity_in_robot,
             confidence,
             finished_submaps,
+            check: checked.map(|(checked_motion, scored)| TrackingCheck {
+                chosen_motion: last_pose.inverse() * pose,
+                best_score,
+                checked_motion,
+                checked_fit: scored.map(|(fit, _)| fit),
+                checked_score: scored.map(|(_, score)| score),
+            }),
         }
     }
 
@@ -358,10 +390,8 @@ impl LocalTracker {
             sigma: self.prior.sigma(),
         });
         let found = align_near(submap.points(), points, guess, icp, prior.as_ref())?;
-        let fit = submap.tracking_fit(points, found.map_from_robot, icp.inlier_m);
+        let (fit, score) = self.score_pose(points, found.map_from_robot, predicted)?;
         let pose_in_local = submap_in_local * found.map_from_robot;
-        let score = fit.tracking_score(self.options.local.free_weight)
-            - self.prior.penalty(predicted, pose_in_local);
         Some(Alignment {
             pose_in_local,
             fit,
@@ -388,6 +418,24 @@ impl LocalTracker {
         if best.is_none_or(|b| candidate.score > b.score) {
             *best = Some(candidate);
         }
+    }
+
+    /// How `points` (robot frame) fit the older active submap at `pose_in_submap`, and the
+    /// score of a candidate there: its [`SubmapFit::tracking_score`] less the motion prior's
+    /// penalty for its distance from `predicted` (local frame). `None` without an active
+    /// submap.
+    fn score_pose(
+        &self,
+        points: &[[f64; 2]],
+        pose_in_submap: Pose2,
+        predicted: Pose2,
+    ) -> Option<(SubmapFit, f64)> {
+        let submap = self.active.first()?;
+        let fit = submap.tracking_fit(points, pose_in_submap, self.options.local.icp.inlier_m);
+        let pose_in_local = submap.pose_in_local() * pose_in_submap;
+        let score = fit.tracking_score(self.options.local.free_weight)
+            - self.prior.penalty(predicted, pose_in_local);
+        Some((fit, score))
     }
 
     /// Poses in the local frame found by the search over every heading, around the predicted

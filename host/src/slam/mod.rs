@@ -59,6 +59,7 @@ mod recent_scans;
 pub mod settled_submaps;
 mod slam_submap;
 mod slam_timings;
+mod tracking_check;
 mod window_matcher;
 
 pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
@@ -76,3 +77,4 @@ pub use recent_scans::RecentScans;
 pub use settled_submaps::SettleOptions;
 pub use slam_submap::{SlamSubmap, SubmapFit};
 pub use slam_timings::SlamTimings;
+pub use tracking_check::TrackingCheck;
