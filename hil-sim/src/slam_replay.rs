@@ -32,7 +32,9 @@ use host::evaluation::{
 use host::geometry::Pose2;
 use host::grid::{MapExport, MapExportOptions};
 use host::scan_match::Scan;
-use host::slam::{GridPipeline, GridPipelineOptions, SlamOptions, SlamStats, TrackingCheck};
+use host::slam::{
+    GridPipeline, GridPipelineOptions, SlamOptions, SlamStats, TrackingCheck, TrackingVerdict,
+};
 use serde::Serialize;
 
 use crate::replay::{CarmenLog, LaserRecord, LogError, read_reference, read_relations};
@@ -68,7 +70,7 @@ pub struct SlamReplayOptions {
 
 /// A motion tracking chose this far from the reference's (or farther) counts as elsewhere
 /// in [`TrackingCheckSummary`]: translation (m), rotation (rad).
-pub const CHOSE_ELSEWHERE_BEYOND: [f64; 2] = [0.3, 0.0524];
+pub const CHOSE_ELSEWHERE_BEYOND: [f64; 2] = [0.3, 3.0 * std::f64::consts::PI / 180.0];
 
 /// What the tracking check found ([`SlamReplayOptions::check_tracking`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -428,15 +430,13 @@ impl TrackingCheckSummary {
         let mut summary = TrackingCheckSummary::default();
         for check in checks {
             summary.scans_checked += 1;
-            if check.chose_elsewhere(max_m, max_rad) {
-                summary.chose_elsewhere += 1;
-                if check.checked_score.is_none_or(|score| score <= 0.0) {
-                    summary.reference_refused += 1;
-                } else if check.checked_scores_higher() {
-                    summary.reference_scored_higher += 1;
-                } else {
-                    summary.reference_scored_lower += 1;
-                }
+            let verdict = check.verdict(max_m, max_rad);
+            summary.chose_elsewhere += usize::from(verdict != TrackingVerdict::Agrees);
+            match verdict {
+                TrackingVerdict::Agrees => {}
+                TrackingVerdict::SearchMissed => summary.reference_scored_higher += 1,
+                TrackingVerdict::ScoredLower => summary.reference_scored_lower += 1,
+                TrackingVerdict::Refused => summary.reference_refused += 1,
             }
         }
         summary
@@ -480,7 +480,7 @@ fn write_tracking_check(
             fit.map_or(f64::NAN, |f| f.surface_fraction),
             fit.map_or(f64::NAN, |f| f.free_fraction),
             u8::from(lost.get(index).copied().unwrap_or(false)),
-            u8::from(check.chose_elsewhere(max_m, max_rad)),
+            u8::from(check.verdict(max_m, max_rad) != TrackingVerdict::Agrees),
         )?;
     }
     out.flush()

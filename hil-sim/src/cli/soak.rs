@@ -19,9 +19,9 @@ use super::CliResult;
 /// memory after that minute (the peak of the start, before it, is reported beside), the
 /// threads do not grow, every frame is accounted for and the recording reads with at most one
 /// flush interval's frames missing. Writes OUT/soak.json (the report, also printed),
-/// OUT/soak.tsv (the samples, with the resident memory by kind), OUT/robot-host.toml and OUT/robot-host.log (the daemon's
-/// configuration and log), OUT/run.mcap (its recording; OUT/run_1.mcap, … for its further
-/// parts) and OUT/simulation/.
+/// OUT/soak.tsv (the samples, with the resident memory by kind), OUT/robot-host.toml and
+/// OUT/robot-host.log (the daemon's configuration and log), OUT/run.mcap (its recording;
+/// OUT/run_1.mcap, … for its further parts) and OUT/simulation/.
 #[derive(Debug, clap::Args)]
 pub struct SoakArgs {
     /// The world: `outdoor` (EKF SLAM with GPS and an aerial image; every fault kind bites)

@@ -77,4 +77,4 @@ pub use recent_scans::RecentScans;
 pub use settled_submaps::SettleOptions;
 pub use slam_submap::{SlamSubmap, SubmapFit};
 pub use slam_timings::SlamTimings;
-pub use tracking_check::TrackingCheck;
+pub use tracking_check::{TrackingCheck, TrackingVerdict};

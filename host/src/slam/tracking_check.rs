@@ -29,7 +29,38 @@ pub struct TrackingCheck {
     pub checked_score: Option<f64>,
 }
 
+/// Where tracking placed a scan against the checked motion, and why
+/// ([`TrackingCheck::verdict`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TrackingVerdict {
+    /// The chosen motion lies near the checked one.
+    Agrees,
+    /// Elsewhere, and the checked motion scores higher than every candidate and would be
+    /// taken: the search did not reach it.
+    SearchMissed,
+    /// Elsewhere, and the checked motion would be taken but scores lower than the best
+    /// candidate: the score prefers the wrong pose.
+    ScoredLower,
+    /// Elsewhere, and the checked motion scores as a pose tracking refuses (at most 0, or
+    /// no submap to score it on): the scan fits too little there to be placed at all.
+    Refused,
+}
+
 impl TrackingCheck {
+    /// The verdict, where a chosen motion farther than `max_m` or `max_rad` from the checked
+    /// one counts as elsewhere.
+    pub fn verdict(&self, max_m: f64, max_rad: f64) -> TrackingVerdict {
+        if !self.chose_elsewhere(max_m, max_rad) {
+            TrackingVerdict::Agrees
+        } else if self.checked_score.is_none_or(|score| score <= 0.0) {
+            TrackingVerdict::Refused
+        } else if self.checked_scores_higher() {
+            TrackingVerdict::SearchMissed
+        } else {
+            TrackingVerdict::ScoredLower
+        }
+    }
+
     /// Whether the chosen motion lies farther than `max_m` or `max_rad` from the checked one.
     pub fn chose_elsewhere(&self, max_m: f64, max_rad: f64) -> bool {
         let difference = self.checked_motion.inverse() * self.chosen_motion;
@@ -75,6 +106,33 @@ mod tests {
         wrapped.checked_motion = Pose2::new(2.0, 0.0, std::f64::consts::PI - 0.01);
         wrapped.chosen_motion = Pose2::new(2.0, 0.0, -std::f64::consts::PI + 0.01);
         assert!(!wrapped.chose_elsewhere(0.3, 0.05));
+    }
+
+    #[test]
+    fn a_verdict_names_why_the_choice_was_elsewhere() {
+        let (max_m, max_rad) = (0.3, 0.05);
+        let near = Pose2::new(2.0, 0.0, 0.1);
+        let short = Pose2::IDENTITY;
+        assert_eq!(
+            check(near, Some(0.1), Some(0.5)).verdict(max_m, max_rad),
+            TrackingVerdict::Agrees
+        );
+        assert_eq!(
+            check(short, Some(0.4), Some(0.5)).verdict(max_m, max_rad),
+            TrackingVerdict::SearchMissed
+        );
+        assert_eq!(
+            check(short, Some(0.5), Some(0.4)).verdict(max_m, max_rad),
+            TrackingVerdict::ScoredLower
+        );
+        assert_eq!(
+            check(short, Some(-0.2), Some(0.0)).verdict(max_m, max_rad),
+            TrackingVerdict::Refused
+        );
+        assert_eq!(
+            check(short, Some(0.5), None).verdict(max_m, max_rad),
+            TrackingVerdict::Refused
+        );
     }
 
     #[test]
