@@ -35,6 +35,16 @@
 //! clock, must count exactly, and so must every lock-step run (`tests/run_chain.rs`). What
 //! the board decodes, delivers and measures is compared exactly either way.
 //!
+//! A host busy enough can hold QEMU back longer than the slack: the restart's bring-up then
+//! ends 0.24–0.67 s later than in the host-executor run, after its first scan (seen on a
+//! shared CI machine, and with three busy loops beside the test in one run of three). The
+//! laser then sent a different set of scans, and the runs cannot be compared. A heavier load can
+//! push the first bring-up past the power cycle, or pause the bytes QEMU hands the image
+//! mid-telegram for longer than the receiver's 35 ms inter-byte timeout, which then drops
+//! that scan as a real board would. Such a QEMU run ([`held_back`]) must still decode
+//! exactly what it got; then it is run again, up to [`QEMU_ATTEMPTS`] times, and the test
+//! fails if no run kept up. A fault of the thumbv7em build that drops scans fails every run.
+//!
 //! Without `qemu-system-arm` or the image the test prints SKIPPED, and fails when `CI` is set.
 
 use std::fs;
@@ -54,6 +64,9 @@ const MIN_SLACK_US: u64 = 100_000;
 /// Scans the QEMU run's firmware may count missed beyond or short of those lost (see the
 /// module documentation).
 const WALL_CLOCK_COUNT_SLACK: u64 = 2;
+/// QEMU runs tried before failing when each one's bring-ups end after the host-executor run's
+/// first scans (see the module documentation).
+const QEMU_ATTEMPTS: usize = 3;
 // The two runs' estimates are not compared value for value. The filter predicts over the
 // board's stamps, which the emulated board takes a few milliseconds late by the wall clock, and
 // on this run (about 1.2 scans a second, a fifth of them cut, four landmarks of which three are
@@ -121,9 +134,9 @@ fn timed_lines(out: &Path, file: &str) -> (Vec<f64>, Vec<String>) {
         .unzip()
 }
 
-/// What each run must show by itself; its count of scans lost within `count_slack` of those
-/// lost.
-fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path, count_slack: u64) {
+/// What every run must show, however late the board was: no panic, a laser streaming at the
+/// end, every scan and frame decoded exactly, every GPS epoch delivered.
+fn assert_decoded(name: &str, s: &RunSummary, out: &Path) {
     assert_eq!(s.panics, 0, "{name}: {s:#?}");
     assert!(s.counted.final_status_received, "{name}: {s:#?}");
     assert_eq!(s.counted.final_laser_state, "Streaming", "{name}: {s:#?}");
@@ -133,7 +146,17 @@ fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path, count_sl
     assert_eq!(s.counted.host_bad_frames, 0, "{name}: {s:#?}");
     assert_eq!(s.frames_lost_on_link, 0, "{name}: {s:#?}");
     assert_eq!(s.counted.host_scan_counter_gaps, 0, "{name}: {s:#?}");
-    // Cut telegrams were sent, and one cut off by the power cycle; every scan accounted for.
+    let (times, _) = timed_lines(out, "trajectory.tsv");
+    assert_eq!(times.len() as u64, s.telegrams_delivered_intact, "{name}");
+    // Every GPS epoch delivered.
+    assert_eq!(s.gps_fixes_emitted, 100, "{name}: {s:#?}");
+    assert_eq!(s.gps_fixes_delivered, s.gps_fixes_emitted, "{name}: {s:#?}");
+}
+
+/// What a run whose bring-ups ended in time must show besides: cut telegrams, one cut by the
+/// power cycle, two streams with scans delivered in each, and every scan accounted for, its
+/// count of scans lost within `count_slack` of those lost.
+fn assert_accounted(name: &str, s: &RunSummary, out: &Path, count_slack: u64) {
     assert!(s.injected.laser.telegrams_truncated > 0, "{name}: {s:#?}");
     assert_eq!(
         s.injected.scan_telegrams_cut_by_restart, 1,
@@ -147,15 +170,11 @@ fn assert_decoded_and_accounted(name: &str, s: &RunSummary, out: &Path, count_sl
     // Two streams (power-on and restart), each with scans delivered.
     assert_eq!(s.laser_streams.len(), 2, "{name}: {s:#?}");
     let (times, _) = timed_lines(out, "trajectory.tsv");
-    assert_eq!(times.len() as u64, s.telegrams_delivered_intact, "{name}");
     assert!(times.iter().any(|&t| t < RESTART_S), "{name}: {times:?}");
     assert!(
         times.iter().any(|&t| t > RESTART_S + 1.0),
         "{name}: {times:?}"
     );
-    // Every GPS epoch delivered.
-    assert_eq!(s.gps_fixes_emitted, 100, "{name}: {s:#?}");
-    assert_eq!(s.gps_fixes_delivered, s.gps_fixes_emitted, "{name}: {s:#?}");
 }
 
 /// The two runs alike: accounting, scans, fixes, poses.
@@ -180,20 +199,14 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
         missed(emulated)
     );
     assert!(missed(host).abs_diff(missed(emulated)) <= WALL_CLOCK_COUNT_SLACK);
+    // The same first scan in each stream, however much later the emulated board asked.
+    assert_eq!(first_scans(host), first_scans(emulated), "first scans");
     assert_eq!(
         accounting(host),
         accounting(emulated),
         "accounting: host executor, then QEMU"
     );
     assert_eq!(host.injected.laser, emulated.injected.laser, "laser faults");
-    // The same first scan in each stream, however much later the emulated board asked.
-    let first_scans = |s: &RunSummary| {
-        s.laser_streams
-            .iter()
-            .map(|x| x.first_scan_us)
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(first_scans(host), first_scans(emulated), "first scans");
     for (h, e) in host.laser_streams.iter().zip(&emulated.laser_streams) {
         println!(
             "stream: first scan at {} µs; host executor streaming {} µs before, QEMU {} µs \
@@ -255,6 +268,32 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
     }
 }
 
+/// Why the QEMU run cannot be compared with the host-executor run, if it cannot: the emulated
+/// board was held back by the host past what the firmware allows, so that its laser streamed
+/// from later scans, or a pause in the bytes QEMU handed it outlasted the receiver's
+/// inter-byte timeout and it dropped a scan the host-executor run delivered.
+fn held_back(host: &RunSummary, emulated: &RunSummary) -> Option<String> {
+    if first_scans(emulated) != first_scans(host) {
+        return Some(format!(
+            "the laser streamed from {:?} µs, in the host-executor run from {:?} µs",
+            first_scans(emulated),
+            first_scans(host)
+        ));
+    }
+    if emulated.telegrams_delivered_intact < host.telegrams_delivered_intact {
+        return Some(format!(
+            "it delivered {} scans intact, the host-executor run {}",
+            emulated.telegrams_delivered_intact, host.telegrams_delivered_intact
+        ));
+    }
+    None
+}
+
+/// When each laser stream's first scan was measured, µs.
+fn first_scans(s: &RunSummary) -> Vec<u64> {
+    s.laser_streams.iter().map(|x| x.first_scan_us).collect()
+}
+
 /// `x_m y_m theta_rad` as numbers.
 fn pose(line: &str) -> [f64; 3] {
     let mut fields = line
@@ -286,24 +325,37 @@ fn the_thumbv7em_image_in_qemu_decodes_and_accounts_exactly_as_the_host_executor
     let host_options = options("host");
     let host = run_with_bring_up(&host_options, None, Some(qemu::image_bring_up()))
         .expect("host-executor run");
-    let emulated_options = options("qemu");
-    let (emulated, report) =
-        qemu::run(&emulated_options, &QemuOptions::new(image())).expect("QEMU run");
     println!("host executor: {host:#?}");
-    println!("QEMU: {emulated:#?}");
-    println!("measured: {report:#?}");
-
-    assert_decoded_and_accounted("host executor", &host, &host_options.out, 0);
-    assert_decoded_and_accounted(
-        "QEMU",
-        &emulated,
-        &emulated_options.out,
-        WALL_CLOCK_COUNT_SLACK,
-    );
-    assert_measured(&report, &emulated);
-    assert!(emulated_options.out.join("qemu.json").is_file());
-    assert_same(&host, &host_options.out, &emulated, &emulated_options.out);
-    for out in [&host_options.out, &emulated_options.out] {
-        let _ = fs::remove_dir_all(out);
+    assert_decoded("host executor", &host, &host_options.out);
+    assert_accounted("host executor", &host, &host_options.out, 0);
+    for attempt in 1..=QEMU_ATTEMPTS {
+        let emulated_options = options("qemu");
+        let (emulated, report) =
+            qemu::run(&emulated_options, &QemuOptions::new(image())).expect("QEMU run");
+        println!("QEMU, run {attempt}: {emulated:#?}");
+        println!("measured: {report:#?}");
+        assert_decoded("QEMU", &emulated, &emulated_options.out);
+        assert_measured(&report, &emulated);
+        assert!(emulated_options.out.join("qemu.json").is_file());
+        if let Some(why) = held_back(&host, &emulated) {
+            println!("QEMU run {attempt} is not compared: {why}");
+            let _ = fs::remove_dir_all(&emulated_options.out);
+            continue;
+        }
+        assert_accounted(
+            "QEMU",
+            &emulated,
+            &emulated_options.out,
+            WALL_CLOCK_COUNT_SLACK,
+        );
+        assert_same(&host, &host_options.out, &emulated, &emulated_options.out);
+        for out in [&host_options.out, &emulated_options.out] {
+            let _ = fs::remove_dir_all(out);
+        }
+        return;
     }
+    panic!(
+        "none of {QEMU_ATTEMPTS} QEMU runs kept up with the host-executor run (each one's reason \
+         is printed above): a host too busy to run QEMU in time, or a fault of the image"
+    );
 }
