@@ -16,7 +16,8 @@ use super::CliResult;
 /// its recording back.
 ///
 /// Passes when the peak memory from the first simulated minute on stays within 10 % of the
-/// memory after that minute (the peak of the start, before it, is reported beside), the
+/// memory after that minute, taken as the peak over the minute that follows it (the peak of
+/// the start, before it, is reported beside), the
 /// threads do not grow, every frame is accounted for and the recording reads with at most one
 /// flush interval's frames missing. Writes OUT/soak.json (the report, also printed),
 /// OUT/soak.tsv (the samples, with the resident memory by kind), OUT/robot-host.toml and
@@ -86,12 +87,18 @@ pub fn run(args: SoakArgs) -> CliResult {
     println!("{}", serde_json::to_string_pretty(&report)?);
     eprintln!(
         "hil-sim: soak of {} s simulated in {:.0} s; peak memory from the first minute on \
-         {:.3}× that minute's ({:.1} MiB; {:.1} MiB over its whole life, the start included); \
-         outputs in {}",
+         {:.1} MiB, {:.3}× the peak over simulated {:.0}–{:.0} s ({:.1} MiB) and {:.3}× the \
+         sample after the first minute ({:.1} MiB); {:.1} MiB over its whole life, the start \
+         included; outputs in {}",
         report.duration_s,
         report.wall_s,
-        report.peak_over_first_minute,
         report.peak_rss_kib as f64 / 1024.0,
+        report.peak_over_first_minute,
+        report.reference_window_s[0],
+        report.reference_window_s[1],
+        report.reference_peak_rss_kib as f64 / 1024.0,
+        report.peak_over_sample_after_first_minute,
+        report.rss_after_first_minute_kib as f64 / 1024.0,
         report.peak_rss_since_start_kib as f64 / 1024.0,
         options.out.display()
     );
