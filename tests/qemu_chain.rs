@@ -135,8 +135,9 @@ fn timed_lines(out: &Path, file: &str) -> (Vec<f64>, Vec<String>) {
 }
 
 /// What every run must show, however late the board was: no panic, a laser streaming at the
-/// end, every scan and frame decoded exactly, every GPS epoch delivered.
-fn assert_decoded(name: &str, s: &RunSummary, out: &Path) {
+/// end, every scan and frame decoded exactly, every GPS epoch delivered. Returns the times of
+/// the trajectory's lines, s.
+fn assert_decoded(name: &str, s: &RunSummary, out: &Path) -> Vec<f64> {
     assert_eq!(s.panics, 0, "{name}: {s:#?}");
     assert!(s.counted.final_status_received, "{name}: {s:#?}");
     assert_eq!(s.counted.final_laser_state, "Streaming", "{name}: {s:#?}");
@@ -151,12 +152,14 @@ fn assert_decoded(name: &str, s: &RunSummary, out: &Path) {
     // Every GPS epoch delivered.
     assert_eq!(s.gps_fixes_emitted, 100, "{name}: {s:#?}");
     assert_eq!(s.gps_fixes_delivered, s.gps_fixes_emitted, "{name}: {s:#?}");
+    times
 }
 
 /// What a run whose bring-ups ended in time must show besides: cut telegrams, one cut by the
 /// power cycle, two streams with scans delivered in each, and every scan accounted for, its
-/// count of scans lost within `count_slack` of those lost.
-fn assert_accounted(name: &str, s: &RunSummary, out: &Path, count_slack: u64) {
+/// count of scans lost within `count_slack` of those lost; `times`, those of its trajectory's
+/// lines ([`assert_decoded`]).
+fn assert_accounted(name: &str, s: &RunSummary, times: &[f64], count_slack: u64) {
     assert!(s.injected.laser.telegrams_truncated > 0, "{name}: {s:#?}");
     assert_eq!(
         s.injected.scan_telegrams_cut_by_restart, 1,
@@ -169,7 +172,6 @@ fn assert_accounted(name: &str, s: &RunSummary, out: &Path, count_slack: u64) {
     );
     // Two streams (power-on and restart), each with scans delivered.
     assert_eq!(s.laser_streams.len(), 2, "{name}: {s:#?}");
-    let (times, _) = timed_lines(out, "trajectory.tsv");
     assert!(times.iter().any(|&t| t < RESTART_S), "{name}: {times:?}");
     assert!(
         times.iter().any(|&t| t > RESTART_S + 1.0),
@@ -273,11 +275,11 @@ fn assert_same(host: &RunSummary, host_out: &Path, emulated: &RunSummary, emulat
 /// from later scans, or a pause in the bytes QEMU handed it outlasted the receiver's
 /// inter-byte timeout and it dropped a scan the host-executor run delivered.
 fn held_back(host: &RunSummary, emulated: &RunSummary) -> Option<String> {
-    if first_scans(emulated) != first_scans(host) {
+    let (emulated_first, host_first) = (first_scans(emulated), first_scans(host));
+    if emulated_first != host_first {
         return Some(format!(
-            "the laser streamed from {:?} µs, in the host-executor run from {:?} µs",
-            first_scans(emulated),
-            first_scans(host)
+            "the laser streamed from {emulated_first:?} µs, in the host-executor run from \
+             {host_first:?} µs"
         ));
     }
     if emulated.telegrams_delivered_intact < host.telegrams_delivered_intact {
@@ -326,15 +328,15 @@ fn the_thumbv7em_image_in_qemu_decodes_and_accounts_exactly_as_the_host_executor
     let host = run_with_bring_up(&host_options, None, Some(qemu::image_bring_up()))
         .expect("host-executor run");
     println!("host executor: {host:#?}");
-    assert_decoded("host executor", &host, &host_options.out);
-    assert_accounted("host executor", &host, &host_options.out, 0);
+    let host_times = assert_decoded("host executor", &host, &host_options.out);
+    assert_accounted("host executor", &host, &host_times, 0);
     for attempt in 1..=QEMU_ATTEMPTS {
         let emulated_options = options("qemu");
         let (emulated, report) =
             qemu::run(&emulated_options, &QemuOptions::new(image())).expect("QEMU run");
         println!("QEMU, run {attempt}: {emulated:#?}");
         println!("measured: {report:#?}");
-        assert_decoded("QEMU", &emulated, &emulated_options.out);
+        let emulated_times = assert_decoded("QEMU", &emulated, &emulated_options.out);
         assert_measured(&report, &emulated);
         assert!(emulated_options.out.join("qemu.json").is_file());
         if let Some(why) = held_back(&host, &emulated) {
@@ -342,12 +344,7 @@ fn the_thumbv7em_image_in_qemu_decodes_and_accounts_exactly_as_the_host_executor
             let _ = fs::remove_dir_all(&emulated_options.out);
             continue;
         }
-        assert_accounted(
-            "QEMU",
-            &emulated,
-            &emulated_options.out,
-            WALL_CLOCK_COUNT_SLACK,
-        );
+        assert_accounted("QEMU", &emulated, &emulated_times, WALL_CLOCK_COUNT_SLACK);
         assert_same(&host, &host_options.out, &emulated, &emulated_options.out);
         for out in [&host_options.out, &emulated_options.out] {
             let _ = fs::remove_dir_all(out);

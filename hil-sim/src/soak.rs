@@ -57,14 +57,6 @@ pub const SETTLED_AFTER_S: f64 = 60.0;
 /// Simulated time over which the memory's reference peak is taken, from [`SETTLED_AFTER_S`]
 /// on, s (a quarter of what follows that on a shorter soak).
 pub const REFERENCE_WINDOW_S: f64 = 60.0;
-
-/// The simulated times over which the memory's reference peak is taken, s: the minute after
-/// the first, or the first quarter of what follows the first minute on a soak of less than
-/// five minutes, so that the peak after it is compared with a stretch of the run.
-pub fn reference_window_s(duration_s: f64) -> [f64; 2] {
-    let window_s = REFERENCE_WINDOW_S.min(0.25 * (duration_s - SETTLED_AFTER_S).max(0.0));
-    [SETTLED_AFTER_S, SETTLED_AFTER_S + window_s]
-}
 /// After the sensors stop, the daemon gets up to this long to take in the last frames.
 const DRAIN: Duration = Duration::from_secs(30);
 /// Every this many samples, a goal request with an [`OVERSIZED_BODY_BYTES`] body is sent.
@@ -73,6 +65,14 @@ const OVERSIZED_EVERY_SAMPLES: usize = 10;
 pub const OVERSIZED_BODY_BYTES: usize = 10 * 1024 * 1024;
 /// How long the daemon may take to start serving its web view.
 const STARTUP: Duration = Duration::from_secs(20);
+
+/// The simulated times over which the memory's reference peak is taken, s: the minute after
+/// the first, or the first quarter of what follows the first minute on a soak of less than
+/// five minutes, so that the peak after it is compared with a stretch of the run.
+pub fn reference_window_s(duration_s: f64) -> [f64; 2] {
+    let window_s = REFERENCE_WINDOW_S.min(0.25 * (duration_s - SETTLED_AFTER_S).max(0.0));
+    [SETTLED_AFTER_S, SETTLED_AFTER_S + window_s]
+}
 
 /// What to run.
 #[derive(Debug, Clone)]
