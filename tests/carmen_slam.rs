@@ -37,7 +37,7 @@ fn options_without_odometry(
         log: clf,
         out: std::env::temp_dir().join(format!("carmen-{log}-{}", std::process::id())),
         odometry: false,
-        no_return_from_m: 80.0,
+        no_return_from_m: None,
         relations: None,
         reference: None,
         slam: SlamOptions::default(),
@@ -178,12 +178,13 @@ fn orebro_closes_its_loop_after_scans_tracking_could_not_place() {
 }
 
 /// The tracking check scores the reference's motion into every scan beside what tracking
-/// chose, and changes nothing of what tracking does: orebro's first 40 scans (the corridor
-/// of scans 16–17 among them) give the same trajectory with it and without it.
+/// chose, and changes nothing of what tracking does: orebro's first 60 scans (scan 51, placed
+/// short along a corridor, and the turn of scans 58–59 that tracking loses among them) give
+/// the same trajectory with it and without it.
 #[test]
 fn the_tracking_check_scores_the_reference_and_changes_nothing() {
     let test = "the_tracking_check_scores_the_reference_and_changes_nothing";
-    let Some((plain, plain_out)) = replay("orebro", Some(40), test) else {
+    let Some((plain, plain_out)) = replay("orebro", Some(60), test) else {
         return;
     };
     let Some(reference) = datasets::require("benchmark/orebro.reference.tsv", test) else {
@@ -195,7 +196,7 @@ fn the_tracking_check_scores_the_reference_and_changes_nothing() {
     let mut options = SlamReplayOptions {
         reference: Some(reference),
         check_tracking: true,
-        ..options_without_odometry("orebro", clf, Some(40))
+        ..options_without_odometry("orebro", clf, Some(60))
     };
     options
         .out
@@ -206,7 +207,7 @@ fn the_tracking_check_scores_the_reference_and_changes_nothing() {
     assert!(plain.tracking_check.is_none());
     let check = checked.tracking_check.expect("a tracking check");
     // Every scan but the first has the scan before it in the reference.
-    assert_eq!(check.scans_checked, 39, "{check:?}");
+    assert_eq!(check.scans_checked, 59, "{check:?}");
     assert!(check.chose_elsewhere > 0, "{check:?}");
     assert_eq!(
         check.chose_elsewhere,
@@ -218,7 +219,7 @@ fn the_tracking_check_scores_the_reference_and_changes_nothing() {
         .filter(|l| !l.starts_with('#'))
         .map(|l| l.split_whitespace().collect())
         .collect();
-    assert_eq!(rows.len(), 39);
+    assert_eq!(rows.len(), 59);
     assert!(rows.iter().all(|r| r.len() == 13), "{table}");
     let elsewhere = rows.iter().filter(|r| r[12] == "1").count();
     assert_eq!(elsewhere, check.chose_elsewhere);
@@ -242,7 +243,7 @@ fn bench_slam_gives_a_row_for_every_log() {
     let options = hil_sim::bench_slam::BenchSlamOptions {
         dir,
         out: std::env::temp_dir().join(format!("bench-slam-{}", std::process::id())),
-        no_return_from_m: 80.0,
+        no_return_from_m: None,
         first_scans: Some(40),
     };
     let mut announced = Vec::new();

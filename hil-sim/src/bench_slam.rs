@@ -22,8 +22,9 @@ pub struct BenchSlamOptions {
     pub dir: PathBuf,
     /// Where each log's outputs go, in a directory of its name.
     pub out: PathBuf,
-    /// Ranges at or above this are no return, metres.
-    pub no_return_from_m: f64,
+    /// Ranges at or above this are no return, metres; `None` reads it from each log
+    /// ([`detect_no_return_from_m`](crate::replay::detect_no_return_from_m)).
+    pub no_return_from_m: Option<f64>,
     /// Only each log's first this many scans; all when `None`.
     pub first_scans: Option<usize>,
 }

@@ -37,7 +37,9 @@ use host::slam::{
 };
 use serde::Serialize;
 
-use crate::replay::{CarmenLog, LaserRecord, LogError, read_reference, read_relations};
+use crate::replay::{
+    CarmenLog, LaserRecord, LogError, detect_no_return_from_m, read_reference, read_relations,
+};
 
 /// Cell size of the exported map, metres.
 const MAP_RESOLUTION_M: f64 = 0.05;
@@ -52,8 +54,9 @@ pub struct SlamReplayOptions {
     /// Use the poses the log records as odometry; `false` ignores every pose in the log.
     pub odometry: bool,
     /// Ranges at or above this are no return, metres (the logs write their maximum, e.g.
-    /// 81.83 m for Intel, for "no echo").
-    pub no_return_from_m: f64,
+    /// 81.83 m for Intel, for "no echo"); `None` reads it from the log's ranges
+    /// ([`detect_no_return_from_m`]).
+    pub no_return_from_m: Option<f64>,
     /// Ground-truth relations to evaluate against (`t1 t2 x y z roll pitch yaw`).
     pub relations: Option<PathBuf>,
     /// A reference trajectory (`timestamp x y theta`) to build consecutive and revisit
@@ -106,6 +109,8 @@ pub struct SlamReplaySummary {
     pub log: String,
     /// Whether the log's poses were used as odometry.
     pub odometry: bool,
+    /// Ranges at or above this were taken as no return, m (given, or read from the log).
+    pub no_return_from_m: f64,
     /// What the pipeline did.
     pub slam: SlamStats,
     /// Cell size the map was drawn at, metres: the finest at which it fits whole
@@ -240,9 +245,12 @@ pub fn replay_carmen_slam(
     if options.odometry && odometry_is_zero {
         return Err(SlamReplayError::NoOdometry(options.log.clone()));
     }
+    let no_return_from_m = options
+        .no_return_from_m
+        .unwrap_or_else(|| detect_no_return_from_m(lasers.iter().copied()));
     let scans: Vec<Scan> = lasers
         .iter()
-        .map(|l| scan_of(l, options.no_return_from_m))
+        .map(|l| scan_of(l, no_return_from_m))
         .collect();
 
     let reference: Option<Trajectory> = match &options.reference {
@@ -381,6 +389,7 @@ pub fn replay_carmen_slam(
         timing,
         log: options.log.display().to_string(),
         odometry: options.odometry,
+        no_return_from_m,
         slam: pipeline.stats(),
         map_resolution_m: global_grid.limits().resolution_m(),
         relations,

@@ -20,9 +20,11 @@ pub struct BenchSlamArgs {
     /// Where each log's outputs go, in a directory of its name.
     #[arg(long, default_value = "bench-slam-out")]
     out: PathBuf,
-    /// Ranges at or above this are "no return", m (the logs write their maximum).
-    #[arg(long, default_value_t = 80.0)]
-    no_return_from_m: f64,
+    /// Ranges at or above this are "no return", m [default: read from each log: just below
+    /// its largest range when many ranges pile up there, as a sensor's saturated readings
+    /// do (32.767 m, 81.91 m); else 80 m].
+    #[arg(long)]
+    no_return_from_m: Option<f64>,
     /// Only each log's first N scans (a short run; relations beyond them are not covered).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     first_scans: Option<u64>,

@@ -27,9 +27,11 @@ pub struct ReplayCarmenArgs {
     /// Laser-only logs (every pose zero) must be run with `none`.
     #[arg(long, default_value = "log", value_parser = ["log", "none"])]
     odometry: String,
-    /// Ranges at or above this are "no return", m (the logs write their maximum).
-    #[arg(long, default_value_t = 80.0)]
-    no_return_from_m: f64,
+    /// Ranges at or above this are "no return", m [default: read from the log: just below
+    /// its largest range when many ranges pile up there, as a sensor's saturated readings
+    /// do (32.767 m, 81.91 m); else 80 m].
+    #[arg(long)]
+    no_return_from_m: Option<f64>,
     /// Ground-truth relations (`t1 t2 x y z roll pitch yaw`) to measure the error on
     /// [default: LOG.relations when present].
     #[arg(long)]

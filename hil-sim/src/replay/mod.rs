@@ -5,7 +5,8 @@
 //!
 //! Readers (typed [`LogError`]s naming file, line and field; nothing panics on bad input):
 //!
-//! * [`carmen`]: CARMEN logs (`FLASER`, `ROBOTLASER1`, `ODOM`; gzip too).
+//! * [`carmen`]: CARMEN logs (`FLASER`, `ROBOTLASER1`, `ODOM`; gzip too), and
+//!   [`no_return`]: which of their ranges mean "no return".
 //! * [`reference`](mod@reference): reference trajectories (`*.reference.tsv`).
 //! * [`relations`]: Kümmerle et al. ground-truth relations (`*.relations`).
 //! * [`victoria`]: the Victoria Park ASCII export (drive inputs, GPS, tree detections).
@@ -26,6 +27,7 @@ pub mod carmen_scans;
 pub mod error;
 mod fields;
 pub mod gps_replay;
+pub mod no_return;
 pub mod reference;
 pub mod relations;
 pub mod tree_scans;
@@ -39,6 +41,7 @@ pub use carmen::{
 pub use carmen_scans::recorded_scans;
 pub use error::{FieldProblem, LogError};
 pub use gps_replay::{GpsReplay, GpsReplayOptions};
+pub use no_return::detect_no_return_from_m;
 pub use reference::{ReferencePose, parse_reference, read_reference};
 pub use relations::{Relation, parse_relations, read_relations};
 pub use tree_scans::{TreeScanOptions, synthesize_tree_scan, tree_scans};
