@@ -143,6 +143,13 @@ fn aces_closes_its_loop_round_the_start_without_odometry() {
     // Measured: 0.041 m over 114 revisits, all between scans 0–25 and 225–275.
     assert_eq!(revisits.count, 114, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 0.10, "{revisits:?}");
+    // Every closure that entered the graph, through the corridors, lies where the reference
+    // puts it.
+    let closures = summary
+        .closure_check
+        .expect("closures checked against the reference");
+    assert!(closures.checked_during_run > 0, "{closures:?}");
+    assert!(closures.off_reference.is_empty(), "{closures:?}");
     let _ = std::fs::remove_dir_all(&out);
 }
 

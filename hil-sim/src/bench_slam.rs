@@ -80,6 +80,10 @@ pub struct BenchSlamRow {
     /// Loop closures found but rejected: no second match agreed with them, or the graph's
     /// robust kernel switched them off.
     pub rejected_closures: usize,
+    /// Of the loop closures and refinement constraints in the graph, those at least
+    /// [`OFF_REFERENCE_FROM`](crate::closure_check::OFF_REFERENCE_FROM) from the reference's
+    /// relative pose (`None` without a reference).
+    pub closures_off_reference: Option<usize>,
     /// Scans local tracking could not place (flagged lost).
     pub lost_scans: usize,
     /// Constraints of the final refinement.
@@ -195,6 +199,10 @@ pub fn bench_slam(
             loop_closure_searches: stats.loop_closure_searches + stats.chain_closure_searches,
             loop_closures: stats.loop_closures,
             rejected_closures: stats.rejected_closures + stats.switched_off_closures,
+            closures_off_reference: summary
+                .closure_check
+                .as_ref()
+                .map(|c| c.off_reference.len()),
             lost_scans: stats.lost_scans,
             refinement_constraints: stats.refinement_constraints,
             nodes: stats.nodes,
@@ -214,7 +222,7 @@ impl BenchSlamReport {
             )
         };
         let mut text = format!(
-            "{:<18} {:>6} {:>8} {:>8} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
+            "{:<18} {:>6} {:>8} {:>8} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>7} {:>6}\n",
             "log",
             "scans",
             "scans/s",
@@ -226,11 +234,12 @@ impl BenchSlamReport {
             "searches",
             "closures",
             "rejected",
+            "off ref",
             "lost"
         );
         for row in &self.logs {
             text.push_str(&format!(
-                "{:<18} {:>6} {:>8.0} {:>8.2} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>6}\n",
+                "{:<18} {:>6} {:>8.0} {:>8.2} {:>10} {:>17} {:>17} {:>17} {:>9} {:>8} {:>8} {:>7} {:>6}\n",
                 row.log,
                 row.scans,
                 row.scans_per_second,
@@ -243,6 +252,8 @@ impl BenchSlamReport {
                 row.loop_closure_searches,
                 row.loop_closures,
                 row.rejected_closures,
+                row.closures_off_reference
+                    .map_or_else(|| "—".to_string(), |n| n.to_string()),
                 row.lost_scans,
             ));
         }
@@ -297,6 +308,7 @@ mod tests {
                 loop_closure_searches: 3,
                 loop_closures: 1,
                 rejected_closures: 2,
+                closures_off_reference: None,
                 lost_scans: 4,
                 refinement_constraints: 0,
                 nodes: 9,

@@ -7,6 +7,7 @@ pub mod bringup;
 pub mod camera_nees;
 pub mod camera_render;
 pub mod camera_replay;
+pub mod closure_check;
 pub mod decode_nmea;
 pub mod decode_sick;
 pub mod demo;

@@ -37,6 +37,7 @@ use host::slam::{
 };
 use serde::Serialize;
 
+use crate::closure_check::ClosureCheck;
 use crate::replay::{
     CarmenLog, LaserRecord, LogError, detect_no_return_from_m, read_reference, read_relations,
 };
@@ -128,6 +129,10 @@ pub struct SlamReplaySummary {
     /// Error on revisits of the reference (scans at least 50 apart within 2 m and 45°).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_revisits: Option<RelationEvaluation>,
+    /// With a reference: the loop closures that entered the graph against the reference's
+    /// relative poses, and those far from them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub closure_check: Option<ClosureCheck>,
     /// What the tracking check found, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tracking_check: Option<TrackingCheckSummary>,
@@ -382,6 +387,15 @@ pub fn replay_carmen_slam(
         None => (None, None),
     };
 
+    let closure_check = reference.as_ref().map(|reference| {
+        ClosureCheck::of(pipeline.closures(), |scan| {
+            let laser = lasers.get(scan)?;
+            reference
+                .pose_near(laser.timestamp_s, pairing.timestamp_tolerance_s)
+                .map(|p| p.pose_in_map)
+        })
+    });
+
     let summary = SlamReplaySummary {
         scans: scans.len(),
         wall_s,
@@ -396,6 +410,7 @@ pub fn replay_carmen_slam(
         relations_agreement,
         reference_consecutive,
         reference_revisits,
+        closure_check,
         tracking_check,
     };
     let summary_path = options.out.join("summary.json");

@@ -83,6 +83,21 @@ pub struct SlamStats {
     pub fixed_nodes: usize,
 }
 
+/// A constraint a loop closure or the final refinement put into the pose graph: the pose of
+/// one scan measured in the frame of another (the first scan of the submap or chain it was
+/// found in). Compared with a reference trajectory, it tells a right closure from a wrong one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosureConstraint {
+    /// The scan whose pose is the frame, by its number in the order scans were added.
+    pub from_scan: usize,
+    /// The scan that was found, likewise.
+    pub to_scan: usize,
+    /// `from_from_to`, as the alignment measured it.
+    pub to_in_from: Pose2,
+    /// Whether the final refinement added it (else a loop closure during the run).
+    pub refinement: bool,
+}
+
 /// The poses of every scan, optimised, and what it took.
 #[derive(Clone, Debug)]
 pub struct SlamResult {
@@ -98,6 +113,8 @@ pub struct SlamResult {
     pub node_scans: Vec<Scan>,
     /// Where the time went (wall time on this machine).
     pub timings: SlamTimings,
+    /// Every loop closure and refinement constraint that entered the graph, in order.
+    pub closures: Vec<ClosureConstraint>,
 }
 
 impl SlamResult {
@@ -372,9 +389,11 @@ impl GraphSlam {
         if self.closures_since_optimization > 0 || released {
             self.optimize();
         }
+        let closures_in_run = self.closure_edges.len();
         if self.options.refinement.enabled {
             self.refine(&active);
         }
+        let closures = self.closure_constraints(closures_in_run);
         // The last optimisations belong to the end of the run.
         self.timings.optimization_s = optimization_s;
         self.timings.finish_s += seconds_since(started);
@@ -385,7 +404,36 @@ impl GraphSlam {
             lost: self.lost,
             node_scans: self.scans,
             timings: self.timings,
+            closures,
         }
+    }
+
+    /// The constraints of `closure_edges` with their nodes as scan numbers; those from
+    /// `first_refinement` on came from the final refinement.
+    fn closure_constraints(&self, first_refinement: usize) -> Vec<ClosureConstraint> {
+        // A node's scan is the one that created it, placed at the node itself.
+        let mut node_scan = vec![0; self.graph.nodes().len()];
+        for (scan, &(node, in_node)) in self.scan_in_node.iter().enumerate().rev() {
+            if in_node == Pose2::IDENTITY
+                && let Some(slot) = node_scan.get_mut(node)
+            {
+                *slot = scan;
+            }
+        }
+        let edges = self.graph.edges();
+        self.closure_edges
+            .iter()
+            .enumerate()
+            .filter_map(|(index, id)| {
+                let edge = edges.get(id.0)?;
+                Some(ClosureConstraint {
+                    from_scan: *node_scan.get(edge.from.0)?,
+                    to_scan: *node_scan.get(edge.to.0)?,
+                    to_in_from: edge.to_in_from,
+                    refinement: index >= first_refinement,
+                })
+            })
+            .collect()
     }
 
     /// Where the time went so far (wall time on this machine).

@@ -9,7 +9,9 @@ use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::link::SensorEvent;
 use crate::scan_match::{Scan, ScanMatchError};
-use crate::slam::{GraphSlam, SlamOptions, SlamResult, SlamStats, SlamTimings, TrackingCheck};
+use crate::slam::{
+    ClosureConstraint, GraphSlam, SlamOptions, SlamResult, SlamStats, SlamTimings, TrackingCheck,
+};
 
 /// How the pipeline runs.
 #[derive(Debug, Clone)]
@@ -161,6 +163,12 @@ impl GridPipeline {
     pub fn trajectory(&self) -> Vec<(f64, Pose2)> {
         let poses = self.poses_in_map();
         self.times_s.iter().copied().zip(poses).collect()
+    }
+
+    /// Every loop closure and refinement constraint that entered the pose graph, once the
+    /// run is over ([`GridPipeline::finish`]); empty before.
+    pub fn closures(&self) -> &[ClosureConstraint] {
+        self.result.as_ref().map_or(&[], |result| &result.closures)
     }
 
     /// How many scans were added.

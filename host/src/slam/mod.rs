@@ -62,7 +62,7 @@ mod slam_timings;
 mod tracking_check;
 mod window_matcher;
 
-pub use graph_slam::{GraphSlam, SlamResult, SlamStats};
+pub use graph_slam::{ClosureConstraint, GraphSlam, SlamResult, SlamStats};
 pub use grid_pipeline::{GridPipeline, GridPipelineOptions};
 pub use local_tracker::{LocalTracker, TrackedScan};
 pub use loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
