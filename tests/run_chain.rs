@@ -189,7 +189,8 @@ fn carmen_log_replays_through_the_chain() {
     let options = hil_sim::run::ReplayOptions {
         source: hil_sim::run::ReplaySource::Carmen(log),
         pace: hil_sim::emulators::ReplayPace::AsFastAsPossible,
-        no_return_from_m: Some(81.83),
+        // Read from the log: its 81.83 m readings pile up at its largest range.
+        no_return_from_m: None,
         seed: 5,
         faults: "ber=1e-5,truncate=0.02".parse().expect("fault spec"),
         out: out.clone(),

@@ -34,7 +34,8 @@ pub struct ReplayArgs {
     #[arg(long)]
     recorded_pace: bool,
     /// The range a CARMEN log writes for "no return", m (e.g. 81.83 for Intel, 50 for
-    /// ACES).
+    /// ACES) [default: read from the log: just below its largest range when many ranges
+    /// pile up there, as a sensor's saturated readings do].
     #[arg(long)]
     no_return_from_m: Option<f64>,
     /// Faults to inject (syntax as for `run`).

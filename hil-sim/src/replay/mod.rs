@@ -41,7 +41,7 @@ pub use carmen::{
 pub use carmen_scans::recorded_scans;
 pub use error::{FieldProblem, LogError};
 pub use gps_replay::{GpsReplay, GpsReplayOptions};
-pub use no_return::detect_no_return_from_m;
+pub use no_return::{detect_no_return_from_m, saturation_from_m};
 pub use reference::{ReferencePose, parse_reference, read_reference};
 pub use relations::{Relation, parse_relations, read_relations};
 pub use tree_scans::{TreeScanOptions, synthesize_tree_scan, tree_scans};

@@ -26,8 +26,18 @@ pub const DEFAULT_NO_RETURN_FROM_M: f64 = 80.0;
 
 /// Ranges at or above the returned value are no return, m: the lower edge of the
 /// [`SATURATION_BAND`] below the largest range of `lasers` when at least
-/// [`MIN_SATURATED_SHARE`] of their ranges lie in it, else [`DEFAULT_NO_RETURN_FROM_M`].
+/// [`MIN_SATURATED_SHARE`] of their ranges lie in it ([`saturation_from_m`]), at most
+/// [`DEFAULT_NO_RETURN_FROM_M`], else [`DEFAULT_NO_RETURN_FROM_M`].
 pub fn detect_no_return_from_m<'a>(lasers: impl IntoIterator<Item = &'a LaserRecord>) -> f64 {
+    saturation_from_m(lasers).map_or(DEFAULT_NO_RETURN_FROM_M, |from_m| {
+        from_m.min(DEFAULT_NO_RETURN_FROM_M)
+    })
+}
+
+/// The lower edge of the [`SATURATION_BAND`] below the largest range of `lasers`, m, when at
+/// least [`MIN_SATURATED_SHARE`] of their ranges lie in it; `None` when they do not pile up
+/// there (or there are no ranges).
+pub fn saturation_from_m<'a>(lasers: impl IntoIterator<Item = &'a LaserRecord>) -> Option<f64> {
     let lasers: Vec<&LaserRecord> = lasers.into_iter().collect();
     let ranges = || {
         lasers
@@ -35,18 +45,12 @@ pub fn detect_no_return_from_m<'a>(lasers: impl IntoIterator<Item = &'a LaserRec
             .flat_map(|l| l.ranges_m.iter().copied())
             .filter(|r| r.is_finite() && *r > 0.0)
     };
-    let Some(largest_m) = ranges().reduce(f64::max) else {
-        return DEFAULT_NO_RETURN_FROM_M;
-    };
+    let largest_m = ranges().reduce(f64::max)?;
     let from_m = largest_m * (1.0 - SATURATION_BAND);
     let (saturated, all) = ranges().fold((0usize, 0usize), |(saturated, all), r| {
         (saturated + usize::from(r >= from_m), all + 1)
     });
-    if saturated as f64 >= MIN_SATURATED_SHARE * all as f64 {
-        from_m.min(DEFAULT_NO_RETURN_FROM_M)
-    } else {
-        DEFAULT_NO_RETURN_FROM_M
-    }
+    (saturated as f64 >= MIN_SATURATED_SHARE * all as f64).then_some(from_m)
 }
 
 #[cfg(test)]
@@ -91,6 +95,8 @@ mod tests {
         let mut ranges = vec![5.0; 170];
         ranges.extend([81.83, 81.91, 81.91]);
         let log = log_of(&[ranges]);
+        let from_m = saturation_from_m(log.lasers()).expect("a pile-up");
+        assert!((81.0..81.83).contains(&from_m), "{from_m}");
         assert_eq!(
             detect_no_return_from_m(log.lasers()),
             DEFAULT_NO_RETURN_FROM_M
@@ -108,6 +114,7 @@ mod tests {
             })
             .collect();
         let log = log_of(&scans);
+        assert_eq!(saturation_from_m(log.lasers()), None);
         assert_eq!(
             detect_no_return_from_m(log.lasers()),
             DEFAULT_NO_RETURN_FROM_M

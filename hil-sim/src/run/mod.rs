@@ -62,7 +62,7 @@ use crate::faults::FaultSpec;
 use crate::pty::PtyLink;
 use crate::replay::{
     CarmenLog, LocalGpsFix, TreeScanOptions, VictoriaPark, capture_scans, recorded_scans,
-    tree_scans,
+    saturation_from_m, tree_scans,
 };
 use crate::sim_time::VirtualClock;
 use crate::world::{GeoDatum, RobotState, Scenario, ShapeWorld, Trajectory, WorldKind};
@@ -336,7 +336,9 @@ pub struct ReplayOptions {
     /// At the log's pace, or one scan per scan period.
     pub pace: ReplayPace,
     /// The range a CARMEN log writes for "no return", m (81.83 for Intel, 50 for ACES); ranges
-    /// at or above it become the sensor's no-return code.
+    /// at or above it become the sensor's no-return code. `None` reads it from the log where
+    /// its ranges pile up at their largest value ([`saturation_from_m`]), else takes a
+    /// `ROBOTLASER1` record's maximum range.
     pub no_return_from_m: Option<f64>,
     /// Seed of the faults.
     pub seed: u64,
@@ -379,7 +381,12 @@ fn read_recording(options: &ReplayOptions) -> io::Result<Recording> {
                 })
                 .collect();
             Ok(Recording {
-                scans: recorded_scans(&log, options.no_return_from_m),
+                scans: recorded_scans(
+                    &log,
+                    options
+                        .no_return_from_m
+                        .or_else(|| saturation_from_m(log.lasers())),
+                ),
                 truth,
                 gps: None,
                 unit: RangeUnit::Cm,
