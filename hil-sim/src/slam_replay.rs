@@ -271,23 +271,26 @@ pub fn replay_carmen_slam(
         None => None,
     };
     let pairing = PairingOptions::default();
-    // For every scan, the reference's motion into it from the scan before, when checked.
-    let motions_to_check: Vec<Option<Pose2>> = match (&reference, options.check_tracking) {
-        (Some(reference), true) => {
-            let pose_at = |laser: &LaserRecord| {
-                reference
-                    .pose_near(laser.timestamp_s, pairing.timestamp_tolerance_s)
+    // For every scan, the reference's pose at its time (empty without a reference).
+    let reference_poses: Vec<Option<Pose2>> = reference.as_ref().map_or_else(Vec::new, |r| {
+        lasers
+            .iter()
+            .map(|l| {
+                r.pose_near(l.timestamp_s, pairing.timestamp_tolerance_s)
                     .map(|p| p.pose_in_map)
-            };
-            let poses: Vec<Option<Pose2>> = lasers.iter().map(|l| pose_at(l)).collect();
-            std::iter::once(None)
-                .chain(poses.windows(2).map(|pair| match pair {
-                    [Some(before), Some(at)] => Some(before.inverse() * *at),
-                    _ => None,
-                }))
-                .collect()
-        }
-        _ => Vec::new(),
+            })
+            .collect()
+    });
+    // For every scan, the reference's motion into it from the scan before, when checked.
+    let motions_to_check: Vec<Option<Pose2>> = if options.check_tracking && reference.is_some() {
+        std::iter::once(None)
+            .chain(reference_poses.windows(2).map(|pair| match pair {
+                [Some(before), Some(at)] => Some(before.inverse() * *at),
+                _ => None,
+            }))
+            .collect()
+    } else {
+        Vec::new()
     };
     let mut checks: Vec<Option<TrackingCheck>> = Vec::with_capacity(motions_to_check.len());
 
@@ -387,12 +390,9 @@ pub fn replay_carmen_slam(
         None => (None, None),
     };
 
-    let closure_check = reference.as_ref().map(|reference| {
+    let closure_check = reference.is_some().then(|| {
         ClosureCheck::of(pipeline.closures(), |scan| {
-            let laser = lasers.get(scan)?;
-            reference
-                .pose_near(laser.timestamp_s, pairing.timestamp_tolerance_s)
-                .map(|p| p.pose_in_map)
+            reference_poses.get(scan).copied().flatten()
         })
     });
 
