@@ -8,7 +8,8 @@
 //! whether the closure test lets wrong matches through (one wrong constraint can bend a
 //! building) or whether a map that is off lacks right closures instead.
 
-use host::geometry::{Pose2, wrap_angle_rad};
+use host::evaluation::motion_error;
+use host::geometry::Pose2;
 use host::slam::ClosureConstraint;
 use serde::Serialize;
 
@@ -65,10 +66,7 @@ impl ClosureCheck {
             ) else {
                 continue;
             };
-            let truth = from.inverse() * to;
-            let measured = closure.to_in_from;
-            let error_m = (measured.x_m - truth.x_m).hypot(measured.y_m - truth.y_m);
-            let error_rad = wrap_angle_rad(measured.theta_rad - truth.theta_rad).abs();
+            let [error_m, error_rad] = motion_error(from.inverse() * to, closure.to_in_from);
             check.checked += 1;
             check.checked_during_run += usize::from(!closure.refinement);
             check.max_error_m = check.max_error_m.max(error_m);

@@ -40,7 +40,7 @@ pub use nees::{chi_square_bounds, pose_nees};
 pub use reference_relations::{ReferenceRelationOptions, ReferenceRelations};
 pub use relation::Relation;
 pub use relation_evaluation::{PairingOptions, RelationEvaluation, evaluate_relations};
-pub use relation_residual::RelationResidual;
+pub use relation_residual::{RelationResidual, motion_error};
 pub use scan_agreement::{
     AGREEMENT_DISTANCE_M, AgreementReport, DISPUTE_MARGIN, RelationAgreement, ScanAgreement,
 };

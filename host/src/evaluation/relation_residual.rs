@@ -35,17 +35,28 @@ impl RelationResidual {
         true_from1_to2: Pose2,
         estimated_from1_to2: Pose2,
     ) -> Self {
-        let error = true_from1_to2.inverse() * estimated_from1_to2;
+        let [translation_m, rotation_rad] = motion_error(true_from1_to2, estimated_from1_to2);
         RelationResidual {
             relation_index,
             t1_s,
             t2_s,
-            translation_m: error.x_m.hypot(error.y_m),
-            // Composition wraps the angle; wrapping once more keeps a hand-built `Pose2` with
-            // an unwrapped angle from leaking into the result.
-            rotation_rad: Pose2::new(0.0, 0.0, error.theta_rad).theta_rad.abs(),
+            translation_m,
+            rotation_rad,
         }
     }
+}
+
+/// The error of the motion `estimated_from1_to2` against `true_from1_to2`, as
+/// [`RelationResidual`] measures it: `[|ε.t|` in metres, `|ε.θ|` in radians`]` of the error
+/// pose `ε = inverse(true_from1_to2) * estimated_from1_to2`.
+pub fn motion_error(true_from1_to2: Pose2, estimated_from1_to2: Pose2) -> [f64; 2] {
+    let error = true_from1_to2.inverse() * estimated_from1_to2;
+    [
+        error.x_m.hypot(error.y_m),
+        // Composition wraps the angle; wrapping once more keeps a hand-built `Pose2` with
+        // an unwrapped angle from leaking into the result.
+        Pose2::new(0.0, 0.0, error.theta_rad).theta_rad.abs(),
+    ]
 }
 
 #[cfg(test)]

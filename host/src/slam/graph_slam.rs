@@ -152,6 +152,8 @@ pub struct GraphSlam {
     /// For every scan, the node it is placed by and its pose in that node's frame (the
     /// identity for a node's own scan).
     scan_in_node: Vec<(usize, Pose2)>,
+    /// For every node, the scan that created it.
+    scan_of_node: Vec<usize>,
     /// Finished submaps with their matcher references.
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// Searches a submap over the wide window of an uncertain pose.
@@ -205,6 +207,7 @@ impl GraphSlam {
             poses_in_local: Vec::new(),
             lost: Vec::new(),
             scan_in_node: Vec::new(),
+            scan_of_node: Vec::new(),
             finished: Vec::new(),
             uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
             last_search: Vec::new(),
@@ -270,6 +273,7 @@ impl GraphSlam {
             self.scan_in_node.push((0, Pose2::IDENTITY));
             return pose_in_map;
         };
+        self.scan_of_node.push(self.scan_in_node.len());
         self.scan_in_node.push((node, Pose2::IDENTITY));
         // Node numbers follow scan order, so the graph's ids equal `node`; adding can only
         // fail on non-finite poses, which tracking does not produce.
@@ -411,15 +415,7 @@ impl GraphSlam {
     /// The constraints of `closure_edges` with their nodes as scan numbers; those from
     /// `first_refinement` on came from the final refinement.
     fn closure_constraints(&self, first_refinement: usize) -> Vec<ClosureConstraint> {
-        // A node's scan is the one that created it, placed at the node itself.
-        let mut node_scan = vec![0; self.graph.nodes().len()];
-        for (scan, &(node, in_node)) in self.scan_in_node.iter().enumerate().rev() {
-            if in_node == Pose2::IDENTITY
-                && let Some(slot) = node_scan.get_mut(node)
-            {
-                *slot = scan;
-            }
-        }
+        let node_scan = &self.scan_of_node;
         let edges = self.graph.edges();
         self.closure_edges
             .iter()
