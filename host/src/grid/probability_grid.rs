@@ -224,11 +224,16 @@ impl ProbabilityGrid {
     /// Every cell's log-odds (row-major, as [`MapLimits::linear_index`]), for callers that
     /// update many cells, with the bounds an update keeps them in.
     pub(crate) fn log_odds_mut(&mut self) -> (&mut [f32], LogOddsBounds) {
-        let bounds = LogOddsBounds {
+        let bounds = self.log_odds_bounds();
+        (&mut self.log_odds, bounds)
+    }
+
+    /// The bounds an update keeps a cell's log-odds in.
+    pub(crate) fn log_odds_bounds(&self) -> LogOddsBounds {
+        LogOddsBounds {
             min: self.min_log_odds,
             max: self.max_log_odds,
-        };
-        (&mut self.log_odds, bounds)
+        }
     }
 
     /// Grows the grid, if needed, so that it contains the cell of `point_in_grid` (metres).
@@ -247,6 +252,29 @@ impl ProbabilityGrid {
     /// step towards the same box is cut short by that limit, and both leave every cell with
     /// the same value.
     pub fn reserve_bounds(&mut self, lower_in_grid: [f64; 2], upper_in_grid: [f64; 2]) -> bool {
+        let fits = self.can_reserve(lower_in_grid, upper_in_grid);
+        if fits {
+            self.grow_to_include_bounds(lower_in_grid, upper_in_grid);
+        }
+        fits
+    }
+
+    /// The limits [`Self::reserve_bounds`] gives this grid while it is still empty (no cells),
+    /// without making its cells; `None` when the grid has cells or would not reserve the box.
+    pub(crate) fn limits_reserved_when_empty(
+        &self,
+        lower_in_grid: [f64; 2],
+        upper_in_grid: [f64; 2],
+    ) -> Option<MapLimits> {
+        (self.log_odds.is_empty() && self.can_reserve(lower_in_grid, upper_in_grid)).then(|| {
+            let lower = self.limits.cell_index(lower_in_grid).map(i64::from);
+            let upper = self.limits.cell_index(upper_in_grid).map(i64::from);
+            self.first_limits(lower, upper)
+        })
+    }
+
+    /// Whether [`Self::reserve_bounds`] reserves the box at once.
+    fn can_reserve(&self, lower_in_grid: [f64; 2], upper_in_grid: [f64; 2]) -> bool {
         if !lower_in_grid
             .iter()
             .chain(&upper_in_grid)
@@ -257,18 +285,14 @@ impl ProbabilityGrid {
         let lower = self.limits.cell_index(lower_in_grid).map(i64::from);
         let upper = self.limits.cell_index(upper_in_grid).map(i64::from);
         let size = [self.limits.width_cells(), self.limits.height_cells()];
-        let fits = (0..2).all(|axis| {
+        (0..2).all(|axis| {
             let (mut low, mut high) = (lower[axis].min(upper[axis]), lower[axis].max(upper[axis]));
             if size[axis] > 0 {
                 low = low.min(0);
                 high = high.max(size[axis] as i64 - 1);
             }
             high - low + 1 + 2 * MAX_GROWTH_CELLS as i64 <= MAX_SIDE_CELLS as i64
-        });
-        if fits {
-            self.grow_to_include_bounds(lower_in_grid, upper_in_grid);
-        }
-        fits
+        })
     }
 
     /// Grows the grid, if needed, so that it contains every cell of the axis-aligned box from
@@ -289,26 +313,8 @@ impl ProbabilityGrid {
         let lower = self.limits.cell_index(lower_in_grid).map(i64::from);
         let upper = self.limits.cell_index(upper_in_grid).map(i64::from);
         if self.log_odds.is_empty() {
-            // First cells: the requested box with a margin all round, aligned with the origin.
-            let margin = MIN_GROWTH_CELLS as i64;
-            let first = [
-                lower[0].min(upper[0]) - margin,
-                lower[1].min(upper[1]) - margin,
-            ];
-            let width = (lower[0].max(upper[0]) + 1 + margin - first[0]) as usize;
-            let height = (lower[1].max(upper[1]) + 1 + margin - first[1]) as usize;
-            let lower_corner = self.limits.lower_corner_in_grid();
-            let resolution_m = self.limits.resolution_m();
-            self.limits = MapLimits::new(
-                resolution_m,
-                [
-                    lower_corner[0] + first[0] as f64 * resolution_m,
-                    lower_corner[1] + first[1] as f64 * resolution_m,
-                ],
-                width,
-                height,
-            );
-            self.log_odds = vec![UNKNOWN_LOG_ODDS; width * height];
+            self.limits = self.first_limits(lower, upper);
+            self.log_odds = vec![UNKNOWN_LOG_ODDS; self.limits.num_cells()];
             return;
         }
         let size = [self.limits.width_cells(), self.limits.height_cells()];
@@ -344,6 +350,29 @@ impl ProbabilityGrid {
             return;
         }
         self.grow(grow_low, grow_high);
+    }
+
+    /// The first cells of an empty grid asked to hold the cells `lower` to `upper` (indices
+    /// of the current limits): that box with a margin all round, aligned with the origin.
+    fn first_limits(&self, lower: [i64; 2], upper: [i64; 2]) -> MapLimits {
+        let margin = MIN_GROWTH_CELLS as i64;
+        let first = [
+            lower[0].min(upper[0]) - margin,
+            lower[1].min(upper[1]) - margin,
+        ];
+        let width = (lower[0].max(upper[0]) + 1 + margin - first[0]) as usize;
+        let height = (lower[1].max(upper[1]) + 1 + margin - first[1]) as usize;
+        let lower_corner = self.limits.lower_corner_in_grid();
+        let resolution_m = self.limits.resolution_m();
+        MapLimits::new(
+            resolution_m,
+            [
+                lower_corner[0] + first[0] as f64 * resolution_m,
+                lower_corner[1] + first[1] as f64 * resolution_m,
+            ],
+            width,
+            height,
+        )
     }
 
     /// Adds `grow_low` cells before and `grow_high` after the current ones, per axis.

@@ -173,6 +173,17 @@ impl RangeInserter {
         Some((lower, upper))
     }
 
+    /// The end points of beams with a return that the last [`Self::bounds_in_grid`] placed, in
+    /// the grid frame: the cells [`Self::insert`] would mark hit, in that order.
+    pub(crate) fn hits_in_grid(&self) -> &[[f64; 2]] {
+        &self.hits_in_grid
+    }
+
+    /// The log-odds a hit and a miss add.
+    pub(crate) fn hit_and_miss_log_odds(&self) -> (f32, f32) {
+        (self.hit_log_odds, self.miss_log_odds)
+    }
+
     /// Fills `hits_in_grid` and `free_ends_in_grid` for `scan` at `grid_from_robot`.
     fn collect_end_points(&mut self, scan: &Scan, grid_from_robot: Pose2) {
         self.hits_in_grid.clear();

@@ -65,6 +65,45 @@ impl Iterator for BresenhamLine {
     }
 }
 
+impl BresenhamLine {
+    /// Whether `cell` is among the first `num_cells` cells of the line from `from_px` to
+    /// `to_px` ([`BresenhamLine::new`]'s cells, in its order), without walking it.
+    ///
+    /// Each cell of the line lies one step further along its longer axis (its *major* axis)
+    /// than the one before, and after `k` steps the error term has made
+    /// `⌊(2·k·minor + major) / (2·major)⌋` steps along the other, `major` and `minor` being the
+    /// line's extents along the two axes: the cell at the major coordinate of `cell` is known
+    /// at once.
+    pub fn contains_within(
+        from_px: [i32; 2],
+        to_px: [i32; 2],
+        cell: [i32; 2],
+        num_cells: usize,
+    ) -> bool {
+        let delta = [0, 1].map(|axis| i64::from(to_px[axis]) - i64::from(from_px[axis]));
+        let offset = [0, 1].map(|axis| i64::from(cell[axis]) - i64::from(from_px[axis]));
+        let (major, minor) = if delta[0].abs() >= delta[1].abs() {
+            (0, 1)
+        } else {
+            (1, 0)
+        };
+        let major_extent = delta[major].abs();
+        let minor_extent = delta[minor].abs();
+        let steps = offset[major] * delta[major].signum();
+        if offset[major] != 0 && steps <= 0 {
+            return false;
+        }
+        if steps > major_extent || steps.unsigned_abs() >= num_cells as u64 {
+            return false;
+        }
+        if major_extent == 0 {
+            return offset == [0, 0];
+        }
+        let minor_steps = (2 * steps * minor_extent + major_extent) / (2 * major_extent);
+        offset[minor] == minor_steps * delta[minor].signum()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -110,6 +149,30 @@ mod tests {
                 assert!(
                     (pair[0][0] - pair[1][0]).abs() <= 1 && (pair[0][1] - pair[1][1]).abs() <= 1
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_cell_is_found_on_a_line_exactly_where_the_walk_visits_it() {
+        let from = [3, -2];
+        for to_x in -14..=14 {
+            for to_y in -14..=14 {
+                let to = [from[0] + to_x, from[1] + to_y];
+                let cells = line(from, to);
+                for num_cells in [0, 1, cells.len() / 2, cells.len() - 1, cells.len()] {
+                    for x in from[0] - 16..=from[0] + 16 {
+                        for y in from[1] - 16..=from[1] + 16 {
+                            let walked = cells[..num_cells].contains(&[x, y]);
+                            assert_eq!(
+                                BresenhamLine::contains_within(from, to, [x, y], num_cells),
+                                walked,
+                                "line {from:?} -> {to:?}, cell {:?}, first {num_cells}",
+                                [x, y]
+                            );
+                        }
+                    }
+                }
             }
         }
     }

@@ -8,10 +8,11 @@
 //! every scan is searched.
 
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
-use super::loop_closer::LoopCloser;
+use super::loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
 use super::options::SlamOptions;
 use super::slam_submap::SlamSubmap;
 use crate::geometry::Pose2;
+use crate::grid::{LazyGrid, SubmapOptions};
 use crate::pose_graph::Node;
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
@@ -45,31 +46,47 @@ pub(super) struct ChainCloser {
 
 /// A chain of earlier scans drawn into a submap, with its matcher reference.
 ///
-/// Its occupancy grid is drawn only when a match in it reaches the acceptance test, which
-/// reads it: most searches end before, and ray casting tens of scans is the dearest part of
-/// drawing a chain.
+/// Its occupancy is worked out only when a match in it reaches the acceptance test, and only
+/// at the cells the test reads ([`LazyGrid`]): most searches end before, and ray casting tens
+/// of scans into a grid is the dearest part of drawing a chain.
 #[derive(Debug)]
 struct DrawnChain {
     /// `(centre, first, last)` node and the optimisations run when it was drawn.
     key: ([usize; 3], usize),
-    /// The chain's end points; its grid too once drawn (the submap is then finished).
+    /// The chain's end points; its grid too where it cannot stay undrawn (the submap is then
+    /// finished).
     submap: SlamSubmap,
     reference: PreparedReference,
+    /// The chain's occupancy, once a match needed it, where it can be worked out cell by cell.
+    occupancy: Option<LazyGrid>,
 }
 
 impl DrawnChain {
-    /// Draws the grid of the chain, once: `scans` at `poses_in_map`, the scans and poses the
-    /// chain was made of.
-    fn draw_grid(&mut self, scans: &[Scan], poses_in_map: &[Pose2]) {
-        if self.submap.is_finished() {
+    /// Readies the chain's occupancy for the acceptance test, once: `scans` at `poses_in_map`,
+    /// the scans and poses the chain was made of. A [`LazyGrid`] where one gives the drawn
+    /// grid's values; otherwise the grid is drawn.
+    fn ready_occupancy(&mut self, options: SubmapOptions, scans: &[Scan], poses_in_map: &[Pose2]) {
+        if self.occupancy.is_some() || self.submap.is_finished() {
             return;
         }
         let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
+        self.occupancy = LazyGrid::new(options, self.submap.pose_in_local(), scans_at_poses());
+        if self.occupancy.is_some() {
+            return;
+        }
         self.submap.reserve_for(scans_at_poses());
         for (scan, pose) in scans_at_poses() {
             self.submap.insert_into_grid(scan, pose);
         }
         self.submap.finish();
+    }
+
+    /// The acceptance test of `candidate` in the chain, by `closer`.
+    fn accept(&self, closer: &LoopCloser, candidate: &AlignedCandidate) -> Option<LoopClosure> {
+        match &self.occupancy {
+            Some(occupancy) => closer.accept_on(&self.submap, occupancy, candidate),
+            None => closer.accept(&self.submap, candidate),
+        }
     }
 }
 
@@ -151,7 +168,7 @@ impl ChainCloser {
             .as_ref()
             .is_none_or(|drawn| drawn.key != key)
         {
-            // The grid waits until a match needs it (`DrawnChain::draw_grid`).
+            // The occupancy waits until a match needs it (`DrawnChain::ready_occupancy`).
             let mut submap =
                 SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
             for (chained, (scan, &pose)) in
@@ -166,6 +183,7 @@ impl ChainCloser {
                 key,
                 submap,
                 reference,
+                occupancy: None,
             });
         }
         let drawn = self.last_chain.as_mut()?;
@@ -174,8 +192,8 @@ impl ChainCloser {
         let candidate = self
             .closer
             .align(&drawn.submap, &drawn.reference, scan, guess)?;
-        drawn.draw_grid(&context.scans[first..=last], &poses);
-        let closure = self.closer.accept(&drawn.submap, &candidate)?;
+        drawn.ready_occupancy(self.options.submap, &context.scans[first..=last], &poses);
+        let closure = drawn.accept(&self.closer, &candidate)?;
         Some(FoundClosure {
             submap_first_node: centre,
             node,

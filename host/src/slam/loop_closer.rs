@@ -17,6 +17,7 @@ use super::options::LoopClosureOptions;
 use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
 use crate::geometry::Pose2;
+use crate::grid::Occupancy;
 use crate::scan_match::{FastMatcher, PreparedReference, Scan, ScanMatchError};
 
 /// A scan found in a submap.
@@ -178,7 +179,19 @@ impl LoopCloser {
     /// The rest of [`Self::search`]: the whole acceptance test of `candidate`, found by
     /// [`Self::align`] in `submap`, whose grid it reads.
     pub fn accept(&self, submap: &SlamSubmap, candidate: &AlignedCandidate) -> Option<LoopClosure> {
-        let fit = submap.fit(
+        self.accept_on(submap, submap.grid(), candidate)
+    }
+
+    /// [`Self::accept`] with the submap's occupancy read from `occupancy`
+    /// ([`SlamSubmap::fit_on`]).
+    pub fn accept_on(
+        &self,
+        submap: &SlamSubmap,
+        occupancy: &impl Occupancy,
+        candidate: &AlignedCandidate,
+    ) -> Option<LoopClosure> {
+        let fit = submap.fit_on(
+            occupancy,
             &candidate.points_in_robot,
             candidate.pose_in_submap,
             self.options.icp.inlier_m,

@@ -4,7 +4,7 @@
 
 use super::point_map::{PointMap, PointMapOptions};
 use crate::geometry::Pose2;
-use crate::grid::{CellIndex, Submap, SubmapOptions};
+use crate::grid::{CellIndex, Occupancy, Submap, SubmapOptions};
 use crate::scan_match::Scan;
 
 /// How well a scan placed in a submap agrees with it.
@@ -162,7 +162,30 @@ impl SlamSubmap {
         submap_from_robot: Pose2,
         inlier_m: f64,
     ) -> SubmapFit {
-        self.fit_with_beams(points_in_robot, submap_from_robot, inlier_m, false)
+        self.fit_on(
+            self.submap.grid(),
+            points_in_robot,
+            submap_from_robot,
+            inlier_m,
+        )
+    }
+
+    /// [`Self::fit`] with the occupancy read from `occupancy`, a grid of this submap's scans
+    /// (a [`LazyGrid`](crate::grid::LazyGrid) of them where the grid is not drawn).
+    pub fn fit_on(
+        &self,
+        occupancy: &impl Occupancy,
+        points_in_robot: &[[f64; 2]],
+        submap_from_robot: Pose2,
+        inlier_m: f64,
+    ) -> SubmapFit {
+        self.fit_with_beams(
+            occupancy,
+            points_in_robot,
+            submap_from_robot,
+            inlier_m,
+            false,
+        )
     }
 
     /// [`Self::fit`] with the beams walked too ([`SubmapFit::through_surface_fraction`]), for
@@ -173,11 +196,13 @@ impl SlamSubmap {
         submap_from_robot: Pose2,
         inlier_m: f64,
     ) -> SubmapFit {
-        self.fit_with_beams(points_in_robot, submap_from_robot, inlier_m, true)
+        let grid = self.submap.grid();
+        self.fit_with_beams(grid, points_in_robot, submap_from_robot, inlier_m, true)
     }
 
     fn fit_with_beams(
         &self,
+        occupancy: &impl Occupancy,
         points_in_robot: &[[f64; 2]],
         submap_from_robot: Pose2,
         inlier_m: f64,
@@ -208,7 +233,7 @@ impl SlamSubmap {
                 inliers += 1;
                 inlier_range_m += range_m;
             }
-            if let Some(probability) = grid.probability_at(point) {
+            if let Some(probability) = occupancy.probability_at(point) {
                 known += 1;
                 probability_sum += f64::from(probability);
                 if !inlier && probability < FREE_PROBABILITY {
