@@ -22,6 +22,9 @@ enum Evidence {
     Miss,
 }
 
+/// Slices of the pseudo-angle's range indexed per scan, for finding beams by direction.
+const DIRECTION_BUCKETS: usize = 256;
+
 /// One scan's beams as the inserter draws them: from the sensor cell to each end cell.
 #[derive(Clone, Debug)]
 struct ScanRays {
@@ -31,6 +34,9 @@ struct ScanRays {
     directions: Vec<f64>,
     /// The end cell of each beam, in the order of `directions`.
     ends: Vec<CellIndex>,
+    /// For each of [`DIRECTION_BUCKETS`] equal slices of the pseudo-angle's `[0, 4)`, and for
+    /// 4, the first beam at least as far round: where a search by direction starts.
+    bucket_starts: Vec<u32>,
     /// The longest beam, in cells along its major axis.
     reach_cells: i64,
     /// Whether a beam ends in the sensor cell (such beams have no direction and cross no
@@ -55,13 +61,35 @@ impl ScanRays {
             .map(|(_, end)| chebyshev(offset(sensor, *end)))
             .max()
             .unwrap_or(0);
+        let directions: Vec<f64> = rays.iter().map(|r| r.0).collect();
+        let mut beam = 0;
+        let bucket_starts = (0..=DIRECTION_BUCKETS)
+            .map(|bucket| {
+                let start = bucket as f64 * (4.0 / DIRECTION_BUCKETS as f64);
+                while directions.get(beam).is_some_and(|&d| d < start) {
+                    beam += 1;
+                }
+                beam as u32
+            })
+            .collect();
         ScanRays {
             sensor,
-            directions: rays.iter().map(|r| r.0).collect(),
+            bucket_starts,
+            directions,
             ends: rays.iter().map(|r| r.1).collect(),
             reach_cells,
             hits_sensor_cell,
         }
+    }
+
+    /// The first beam whose pseudo-angle is at least `direction` (in `[0, 4]`), or the number
+    /// of beams.
+    fn first_at_least(&self, direction: f64) -> usize {
+        let bucket =
+            ((direction * (DIRECTION_BUCKETS as f64 / 4.0)) as usize).min(DIRECTION_BUCKETS);
+        let start = self.bucket_starts[bucket] as usize;
+        let end = self.bucket_starts[(bucket + 1).min(DIRECTION_BUCKETS)] as usize;
+        start + self.directions[start..end].partition_point(|&d| d < direction)
     }
 
     /// What the scan did to `cell`: a hit wins over a miss, as the inserter updates each
@@ -80,15 +108,12 @@ impl ScanRays {
             };
         }
         // A cell of a Bresenham line lies within half a cell of the line through the centres
-        // of its end cells, so the beam's direction is within asin(0.5 / distance) of the
-        // cell's; 0.75 leaves room for rounding.
-        let v = to_cell.map(|c| c as f64);
-        let sin = (0.75 / v[0].hypot(v[1])).min(1.0);
-        let cos = (1.0 - sin * sin).sqrt();
-        let lowest = pseudo_angle([cos * v[0] + sin * v[1], cos * v[1] - sin * v[0]]);
-        let highest = pseudo_angle([cos * v[0] - sin * v[1], cos * v[1] + sin * v[0]]);
-        let from = self.directions.partition_point(|&d| d < lowest);
-        let to = self.directions.partition_point(|&d| d <= highest);
+        // of its end cells, so the beam's direction is within asin(0.5 / d) ≤ 0.786 / d of the
+        // cell's, d its distance in cells (at least its Chebyshev distance); the pseudo-angle
+        // changes no faster than the angle. 0.8 leaves room for rounding.
+        let direction = pseudo_angle(to_cell.map(|c| c as f64));
+        let half_width = 0.8 / chebyshev(to_cell) as f64;
+        let (lowest, highest) = (direction - half_width, direction + half_width);
         let mut evidence = None;
         let mut look = |beams: std::ops::Range<usize>| {
             for end in &self.ends[beams] {
@@ -102,11 +127,14 @@ impl ScanRays {
             }
             false
         };
-        let hit = if lowest <= highest {
-            look(from..to)
+        let all = self.ends.len();
+        // The window wraps past the pseudo-angle's 4 back to 0 on one side or the other.
+        let hit = if lowest < 0.0 {
+            look(self.first_at_least(lowest + 4.0)..all) || look(0..self.first_at_least(highest))
+        } else if highest > 4.0 {
+            look(self.first_at_least(lowest)..all) || look(0..self.first_at_least(highest - 4.0))
         } else {
-            // The window wraps past the pseudo-angle's 4 back to 0.
-            look(from..self.ends.len()) || look(0..to)
+            look(self.first_at_least(lowest)..self.first_at_least(highest))
         };
         if hit { Some(Evidence::Hit) } else { evidence }
     }
