@@ -169,22 +169,7 @@ impl LazyGrid {
         let scans = scans.into_iter();
         let mut inserter = RangeInserter::new(options.range_inserter);
         let empty = ProbabilityGrid::new(options.resolution_m, options.grid);
-        let submap_from_map = map_from_submap.inverse();
-        let mut box_in_grid: Option<([f64; 2], [f64; 2])> = None;
-        for (scan, robot_pose_in_map) in scans.clone() {
-            let Some((lower, upper)) =
-                inserter.bounds_in_grid(scan, submap_from_map * robot_pose_in_map)
-            else {
-                continue;
-            };
-            box_in_grid = Some(match box_in_grid {
-                None => (lower, upper),
-                Some((l, u)) => (
-                    [l[0].min(lower[0]), l[1].min(lower[1])],
-                    [u[0].max(upper[0]), u[1].max(upper[1])],
-                ),
-            });
-        }
+        let box_in_grid = inserter.bounds_of_scans(scans.clone(), map_from_submap.inverse());
         let (hit_log_odds, miss_log_odds) = inserter.hit_and_miss_log_odds();
         let mut grid = LazyGrid {
             limits: *empty.limits(),

@@ -173,6 +173,31 @@ impl RangeInserter {
         Some((lower, upper))
     }
 
+    /// The box (as [`Self::bounds_in_grid`]) holding every cell that inserting each of
+    /// `scans`, taken at its `robot_pose_in_map`, into a grid placed at `grid_from_map` would
+    /// touch; `None` when no scan has a finite pose.
+    pub fn bounds_of_scans<'a>(
+        &mut self,
+        scans: impl IntoIterator<Item = (&'a Scan, Pose2)>,
+        grid_from_map: Pose2,
+    ) -> Option<([f64; 2], [f64; 2])> {
+        let mut bounds: Option<([f64; 2], [f64; 2])> = None;
+        for (scan, robot_pose_in_map) in scans {
+            let Some((lower, upper)) = self.bounds_in_grid(scan, grid_from_map * robot_pose_in_map)
+            else {
+                continue;
+            };
+            bounds = Some(match bounds {
+                None => (lower, upper),
+                Some((l, u)) => (
+                    [l[0].min(lower[0]), l[1].min(lower[1])],
+                    [u[0].max(upper[0]), u[1].max(upper[1])],
+                ),
+            });
+        }
+        bounds
+    }
+
     /// The end points of beams with a return that the last [`Self::bounds_in_grid`] placed, in
     /// the grid frame: the cells [`Self::insert`] would mark hit, in that order.
     pub(crate) fn hits_in_grid(&self) -> &[[f64; 2]] {

@@ -136,23 +136,9 @@ impl Submap {
         let Some(map_from_submap) = self.pose_in_map else {
             return;
         };
-        let submap_from_map = map_from_submap.inverse();
-        let mut bounds: Option<([f64; 2], [f64; 2])> = None;
-        for (scan, robot_pose_in_map) in scans {
-            let Some((lower, upper)) = self
-                .inserter
-                .bounds_in_grid(scan, submap_from_map * robot_pose_in_map)
-            else {
-                continue;
-            };
-            bounds = Some(match bounds {
-                None => (lower, upper),
-                Some((l, u)) => (
-                    [l[0].min(lower[0]), l[1].min(lower[1])],
-                    [u[0].max(upper[0]), u[1].max(upper[1])],
-                ),
-            });
-        }
+        let bounds = self
+            .inserter
+            .bounds_of_scans(scans, map_from_submap.inverse());
         if let Some((lower, upper)) = bounds {
             self.grid.reserve_bounds(lower, upper);
         }
