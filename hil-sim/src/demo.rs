@@ -265,15 +265,17 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     // the line up, and the frames still in the board end's buffer would be lost.
     let device_end = relay.device.try_clone_native().map_err(io::Error::other)?;
     let simulation = run_relayed(&run_options, relay, camera_tx);
-    // The daemon reads on its own thread: give it the frames the simulation's side read.
+    // The daemon reads on its own thread: give it the frames the simulation's side read, and
+    // the camera frames still waiting for its capture.
     if let Ok(summary) = &simulation {
         let state = daemon.state();
         let deadline = Instant::now() + DRAIN;
-        while Instant::now() < deadline
-            && state
-                .read()
-                .is_ok_and(|s| s.counters.frames < summary.counted.host_frames)
-        {
+        let camera_frames = frames_due(options);
+        let waiting = |s: &robot_host::LiveState| {
+            let captured = s.camera.as_ref().map_or(0, |c| c.status.frames_captured);
+            s.counters.frames < summary.counted.host_frames || captured < camera_frames
+        };
+        while Instant::now() < deadline && state.read().is_ok_and(|s| waiting(&s)) {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
@@ -321,9 +323,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
             let stats = pipeline.slam_stats();
             let truth = camera_truth.lock().unwrap_or_else(PoisonError::into_inner);
             DemoCameraReport {
-                frames_due: options.camera.map_or(0, |camera| {
-                    (options.duration_s * camera.rate_hz + 1e-9).floor() as u64 + 1
-                }),
+                frames_due: frames_due(options),
                 frames_captured: status.map_or(0, |s| s.frames_captured),
                 frames_tracked: pipeline.poses().len(),
                 frames_skipped: status.map_or(0, |s| s.frames_skipped),
@@ -409,6 +409,14 @@ impl DaemonSetup {
 
 /// The truth of the frames the camera method tracked, in its order: each frame's host time
 /// is the time since `clock` the frame was taken.
+/// The camera frames a demo's simulation renders: one at 0 s and one a period after another
+/// up to its duration (none without a camera).
+fn frames_due(options: &DemoOptions) -> u64 {
+    options.camera.map_or(0, |camera| {
+        (options.duration_s * camera.rate_hz + 1e-9).floor() as u64 + 1
+    })
+}
+
 fn tracked_truth(
     pipeline: &CameraPipeline,
     truth: &[(Instant, CameraRecord)],
