@@ -407,8 +407,6 @@ impl DaemonSetup {
     }
 }
 
-/// The truth of the frames the camera method tracked, in its order: each frame's host time
-/// is the time since `clock` the frame was taken.
 /// The camera frames a demo's simulation renders: one at 0 s and one a period after another
 /// up to its duration (none without a camera).
 fn frames_due(options: &DemoOptions) -> u64 {
@@ -417,6 +415,8 @@ fn frames_due(options: &DemoOptions) -> u64 {
     })
 }
 
+/// The truth of the frames the camera method tracked, in its order: each frame's host time
+/// is the time since `clock` the frame was taken.
 fn tracked_truth(
     pipeline: &CameraPipeline,
     truth: &[(Instant, CameraRecord)],

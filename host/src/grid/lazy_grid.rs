@@ -10,7 +10,7 @@
 
 use super::map_limits::{CellIndex, MapLimits};
 use super::probability_grid::{LogOddsBounds, ProbabilityGrid, probability_from_log_odds};
-use super::range_inserter::RangeInserter;
+use super::range_inserter::{RangeInserter, chebyshev_length};
 use super::submap::SubmapOptions;
 use crate::geometry::Pose2;
 use crate::scan_match::{BresenhamLine, Scan};
@@ -38,7 +38,7 @@ struct ScanRays {
     /// 4, the first beam at least as far round: where a search by direction starts.
     bucket_starts: Vec<u32>,
     /// The longest beam, in cells along its major axis.
-    reach_cells: i64,
+    reach_cells: usize,
     /// Whether a beam ends in the sensor cell (such beams have no direction and cross no
     /// cell, and are not in `ends`).
     hits_sensor_cell: bool,
@@ -53,12 +53,12 @@ impl ScanRays {
                 hits_sensor_cell |= end == sensor;
                 end != sensor
             })
-            .map(|end| (pseudo_angle(offset(sensor, end).map(|c| c as f64)), end))
+            .map(|end| (pseudo_angle(offset(sensor, end)), end))
             .collect();
         rays.sort_by(|a, b| a.0.total_cmp(&b.0));
         let reach_cells = rays
             .iter()
-            .map(|(_, end)| chebyshev(offset(sensor, *end)))
+            .map(|&(_, end)| chebyshev_length(sensor, end))
             .max()
             .unwrap_or(0);
         let directions: Vec<f64> = rays.iter().map(|r| r.0).collect();
@@ -95,11 +95,11 @@ impl ScanRays {
     /// What the scan did to `cell`: a hit wins over a miss, as the inserter updates each
     /// cell once a scan, hits first.
     fn evidence(&self, cell: CellIndex) -> Option<Evidence> {
-        let to_cell = offset(self.sensor, cell);
-        if chebyshev(to_cell) > self.reach_cells {
+        let distance_cells = chebyshev_length(self.sensor, cell);
+        if distance_cells > self.reach_cells {
             return None;
         }
-        if to_cell == [0, 0] {
+        if distance_cells == 0 {
             // Every beam leaving the sensor cell starts with it.
             return if self.hits_sensor_cell {
                 Some(Evidence::Hit)
@@ -111,8 +111,8 @@ impl ScanRays {
         // of its end cells, so the beam's direction is within asin(0.5 / d) ≤ 0.786 / d of the
         // cell's, d its distance in cells (at least its Chebyshev distance); the pseudo-angle
         // changes no faster than the angle. 0.8 leaves room for rounding.
-        let direction = pseudo_angle(to_cell.map(|c| c as f64));
-        let half_width = 0.8 / chebyshev(to_cell) as f64;
+        let direction = pseudo_angle(offset(self.sensor, cell));
+        let half_width = 0.8 / distance_cells as f64;
         let (lowest, highest) = (direction - half_width, direction + half_width);
         let mut evidence = None;
         let mut look = |beams: std::ops::Range<usize>| {
@@ -120,7 +120,7 @@ impl ScanRays {
                 if *end == cell {
                     return true;
                 }
-                let num_free = chebyshev(offset(self.sensor, *end)) as usize;
+                let num_free = chebyshev_length(self.sensor, *end);
                 if BresenhamLine::contains_within(self.sensor, *end, cell, num_free) {
                     evidence = Some(Evidence::Miss);
                 }
@@ -169,7 +169,8 @@ impl LazyGrid {
         let scans = scans.into_iter();
         let mut inserter = RangeInserter::new(options.range_inserter);
         let empty = ProbabilityGrid::new(options.resolution_m, options.grid);
-        let box_in_grid = inserter.bounds_of_scans(scans.clone(), map_from_submap.inverse());
+        let submap_from_map = map_from_submap.inverse();
+        let box_in_grid = inserter.bounds_of_scans(scans.clone(), submap_from_map);
         let (hit_log_odds, miss_log_odds) = inserter.hit_and_miss_log_odds();
         let mut grid = LazyGrid {
             limits: *empty.limits(),
@@ -183,7 +184,7 @@ impl LazyGrid {
         };
         grid.limits = empty.limits_reserved_when_empty(lower, upper)?;
         for (scan, robot_pose_in_map) in scans {
-            let grid_from_robot = map_from_submap.inverse() * robot_pose_in_map;
+            let grid_from_robot = submap_from_map * robot_pose_in_map;
             if inserter.bounds_in_grid(scan, grid_from_robot).is_none() {
                 continue;
             }
@@ -248,14 +249,9 @@ impl Occupancy for LazyGrid {
     }
 }
 
-/// `to - from`, per axis.
-fn offset(from: CellIndex, to: CellIndex) -> [i64; 2] {
-    [0, 1].map(|axis| i64::from(to[axis]) - i64::from(from[axis]))
-}
-
-/// The larger of the two extents: the number of cells of a Bresenham line before its end.
-fn chebyshev(offset: [i64; 2]) -> i64 {
-    offset[0].abs().max(offset[1].abs())
+/// `to - from`, per axis, in cells.
+fn offset(from: CellIndex, to: CellIndex) -> [f64; 2] {
+    [0, 1].map(|axis| f64::from(to[axis]) - f64::from(from[axis]))
 }
 
 /// A direction's "diamond angle" in `[0, 4)`: increasing with the angle counter-clockwise from

@@ -311,7 +311,7 @@ impl UpdateMarks {
 }
 
 /// Number of cells on the Bresenham line from `from` to `to` before `to`.
-fn chebyshev_length(from: CellIndex, to: CellIndex) -> usize {
+pub(super) fn chebyshev_length(from: CellIndex, to: CellIndex) -> usize {
     let dx = (i64::from(to[0]) - i64::from(from[0])).unsigned_abs();
     let dy = (i64::from(to[1]) - i64::from(from[1])).unsigned_abs();
     dx.max(dy) as usize
