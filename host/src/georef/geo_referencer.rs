@@ -154,6 +154,9 @@ impl GeoReferencer {
     }
 }
 
+/// Rounds of [`fit_without_jumps`] in which a pair set aside may come back into the fit.
+const FREE_ROUNDS: usize = 8;
+
 /// The rigid alignment of `pairs` with the pairs outside the gate left out, refitted until
 /// the set of inliers settles; `None` while the heading is not determined.
 fn fit_without_jumps(
@@ -161,8 +164,11 @@ fn fit_without_jumps(
     options: &GeoReferencerOptions,
 ) -> Option<MapAlignment> {
     let mut inlier = vec![true; pairs.len()];
-    // Each round either settles or moves at least one pair; a few suffice in practice.
-    for _ in 0..8 {
+    // Each round either settles or moves at least one pair. In the first rounds a pair set
+    // aside may come back once the fit has moved; after them pairs only leave, so the set
+    // settles within as many more rounds as there are pairs: a trajectory that bends away
+    // from the fixes slowly, peeling off a few pairs a round, still gets its alignment.
+    for round in 0..FREE_ROUNDS + pairs.len() + 1 {
         let used: Vec<AlignmentPair> = pairs
             .iter()
             .zip(&inlier)
@@ -171,7 +177,11 @@ fn fit_without_jumps(
         let fit = RigidAlignment2d::estimate(&used, &options.alignment).ok()?;
         let next: Vec<bool> = pairs
             .iter()
-            .map(|pair| squared_mahalanobis(&fit, pair) <= options.jump_gate_chi2)
+            .zip(&inlier)
+            .map(|(pair, &was_inlier)| {
+                (was_inlier || round < FREE_ROUNDS)
+                    && squared_mahalanobis(&fit, pair) <= options.jump_gate_chi2
+            })
             .collect();
         // Never leave fewer than two pairs: the alignment would not be determined.
         let settled = next == inlier || next.iter().filter(|&&k| k).count() < 2;
@@ -303,6 +313,31 @@ mod tests {
         let error = alignment.enu_from_map.inverse() * enu_from_map;
         assert!(error.x_m.hypot(error.y_m) < 0.05, "{error:?}");
         assert!(error.theta_rad.abs() < 1e-3, "{error:?}");
+    }
+
+    #[test]
+    fn a_map_that_bends_away_from_the_fixes_keeps_its_alignment() {
+        let frame = LocalFrame::new(DATUM[0], DATUM[1], 0.0).expect("datum");
+        let trajectory = l_shaped_trajectory();
+        let mut georef = GeoReferencer::new(GeoReferencerOptions::default(), Some(DATUM));
+        for (t, pose) in &trajectory {
+            let fix = GpsFix::from_msg(&fix_at(&frame, [pose.x_m, pose.y_m]));
+            georef.add_fix(*t, &fix).expect("fix");
+        }
+        // The SLAM's map bends away from the ground slowly, its error growing with the cube
+        // of the time driven (65 m at the end): each fit sets a few more pairs aside, and it
+        // takes more rounds than a pair may come back in before the set settles.
+        let bent: Vec<(f64, Pose2)> = trajectory
+            .iter()
+            .map(|&(t, p)| (t, Pose2::new(p.x_m, p.y_m + 3e-4 * t.powi(3), p.theta_rad)))
+            .collect();
+        let alignment = georef
+            .align(&bent)
+            .expect("aligned on the pairs that agree");
+        assert!(
+            alignment.pairs_used >= 30 && alignment.jumps >= 10,
+            "{alignment:?}"
+        );
     }
 
     #[test]
