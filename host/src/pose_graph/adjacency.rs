@@ -1,63 +1,134 @@
-//! Which edges meet at each node, laid out for walks over the free part of a pose graph:
-//! the fixed nodes move together (they do not move at all), so a walk enters and leaves
-//! them as one node. One flat list in compressed rows, built in two passes over the edges,
-//! instead of a list per node.
+//! Which edges meet at each node, kept up to date as the graph grows, for walks over the free
+//! part of a pose graph: the fixed nodes move together (they do not move at all), so a walk
+//! enters and leaves them as one node. Adding a node or an edge, or fixing or freeing a node,
+//! costs the same however large the graph, so a walk that covers only the free part costs
+//! what that part holds, not what the whole graph does.
 
-use super::graph::PoseGraph;
+use std::collections::BTreeSet;
 
-/// The edges of a graph, each once per free end, in edge order: those of a free
-/// node in one slice of a flat list, and those leaving the fixed nodes (to a free node) in
-/// another. An edge between two fixed nodes is left out: the fixed nodes do not move
-/// relative to one another.
+use super::node::Node;
+
+/// The edges of a graph, each once per end, in edge order, and which nodes are free.
+#[derive(Debug, Clone, Default)]
 pub(super) struct Adjacency {
-    /// `(node, neighbour, edge index)`, grouped by free node.
-    of_free: Vec<(usize, usize, usize)>,
-    /// Where each node's group starts in `of_free` (the node after it: where it ends).
-    starts: Vec<usize>,
-    /// `(fixed node, free neighbour, edge index)`.
-    pub(super) from_fixed: Vec<(usize, usize, usize)>,
+    /// For each node, `(neighbour, edge index)` of every edge at it, in edge order.
+    of_node: Vec<Vec<(usize, usize)>>,
+    /// The free nodes, in order.
+    free: BTreeSet<usize>,
 }
 
 impl Adjacency {
-    /// The edges of `graph` as its nodes are fixed or free now.
-    pub(super) fn new(graph: &PoseGraph) -> Adjacency {
-        let nodes = graph.nodes();
-        let free = |node: usize| !nodes[node].fixed;
-        let mut starts = vec![0usize; nodes.len() + 1];
-        let mut from_fixed = Vec::new();
-        for (index, edge) in graph.edges().iter().enumerate() {
-            let (from, to) = (edge.from.0, edge.to.0);
-            for (end, other) in [(from, to), (to, from)] {
-                if free(end) {
-                    starts[end + 1] += 1;
-                } else if free(other) {
-                    from_fixed.push((end, other, index));
-                }
-            }
+    /// Takes in the next node.
+    pub(super) fn add_node(&mut self, fixed: bool) {
+        if !fixed {
+            self.free.insert(self.of_node.len());
         }
-        for node in 0..nodes.len() {
-            starts[node + 1] += starts[node];
-        }
-        let mut filled = starts.clone();
-        let mut of_free = vec![(0, 0, 0); starts[nodes.len()]];
-        for (index, edge) in graph.edges().iter().enumerate() {
-            let (from, to) = (edge.from.0, edge.to.0);
-            for (end, other) in [(from, to), (to, from)] {
-                if free(end) {
-                    of_free[filled[end]] = (end, other, index);
-                    filled[end] += 1;
-                }
-            }
-        }
-        Adjacency {
-            of_free,
-            starts,
-            from_fixed,
+        self.of_node.push(Vec::new());
+    }
+
+    /// Takes in edge `index` between the existing nodes `from` and `to`.
+    pub(super) fn add_edge(&mut self, index: usize, from: usize, to: usize) {
+        self.of_node[from].push((to, index));
+        self.of_node[to].push((from, index));
+    }
+
+    /// Notes that `node` is now fixed or free.
+    pub(super) fn set_fixed(&mut self, node: usize, fixed: bool) {
+        if fixed {
+            self.free.remove(&node);
+        } else {
+            self.free.insert(node);
         }
     }
 
-    /// The edges of free node `node`.
-    pub(super) fn edges_of_free(&self, node: usize) -> &[(usize, usize, usize)] {
-        &self.of_free[self.starts[node]..self.starts[node + 1]]
+    /// `(neighbour, edge index)` of every edge at `node`, in edge order.
+    pub(super) fn edges_of(&self, node: usize) -> &[(usize, usize)] {
+        self.of_node.get(node).map_or(&[], Vec::as_slice)
+    }
+
+    /// `(fixed node, free neighbour, edge index)` of every edge leaving the fixed nodes, in
+    /// edge order: what a walk leaves the fixed nodes through. Gathered from the free nodes'
+    /// edges, so it costs what the free part holds. An edge between two fixed nodes is left
+    /// out: the fixed nodes do not move relative to one another.
+    pub(super) fn from_fixed(&self, nodes: &[Node]) -> Vec<(usize, usize, usize)> {
+        let mut leaving: Vec<(usize, usize, usize)> = self
+            .free
+            .iter()
+            .flat_map(|&free| {
+                self.edges_of(free)
+                    .iter()
+                    .filter(|&&(other, _)| nodes[other].fixed)
+                    .map(move |&(fixed, index)| (fixed, free, index))
+            })
+            .collect();
+        leaving.sort_unstable_by_key(|&(_, _, index)| index);
+        leaving
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
+
+    use super::*;
+    use crate::geometry::Pose2;
+
+    #[test]
+    fn kept_up_to_date_it_holds_what_a_pass_over_the_edges_finds() {
+        let mut rng = StdRng::seed_from_u64(7);
+        let mut nodes: Vec<Node> = Vec::new();
+        let mut edges: Vec<(usize, usize)> = Vec::new();
+        let mut adjacency = Adjacency::default();
+        for _ in 0..2_000 {
+            match rng.random_range(0..4) {
+                0 => {
+                    let fixed = nodes.is_empty() || rng.random_range(0..5) == 0;
+                    nodes.push(Node {
+                        pose_in_map: Pose2::IDENTITY,
+                        fixed,
+                    });
+                    adjacency.add_node(fixed);
+                }
+                1 | 2 if nodes.len() >= 2 => {
+                    let from = rng.random_range(0..nodes.len());
+                    let to = (from + rng.random_range(1..nodes.len())) % nodes.len();
+                    adjacency.add_edge(edges.len(), from, to);
+                    edges.push((from, to));
+                }
+                _ if !nodes.is_empty() => {
+                    let node = rng.random_range(0..nodes.len());
+                    let fixed = !nodes[node].fixed;
+                    nodes[node].fixed = fixed;
+                    adjacency.set_fixed(node, fixed);
+                }
+                _ => {}
+            }
+        }
+        for node in 0..nodes.len() {
+            let at_node: Vec<(usize, usize)> = edges
+                .iter()
+                .enumerate()
+                .filter_map(|(index, &(from, to))| {
+                    (from == node)
+                        .then_some((to, index))
+                        .or((to == node).then_some((from, index)))
+                })
+                .collect();
+            assert_eq!(adjacency.edges_of(node), at_node.as_slice(), "node {node}");
+        }
+        let leaving: Vec<(usize, usize, usize)> = edges
+            .iter()
+            .enumerate()
+            .filter_map(
+                |(index, &(from, to))| match (nodes[from].fixed, nodes[to].fixed) {
+                    (true, false) => Some((from, to, index)),
+                    (false, true) => Some((to, from, index)),
+                    _ => None,
+                },
+            )
+            .collect();
+        assert!(!leaving.is_empty());
+        assert_eq!(adjacency.from_fixed(&nodes), leaving);
     }
 }

@@ -24,6 +24,8 @@ use crate::geometry::Pose2;
 pub struct PoseGraph {
     nodes: Vec<Node>,
     edges: Vec<Edge>,
+    /// The edges at each node and the free nodes, kept as they change.
+    adjacency: Adjacency,
     /// The normal equations of the current topology, built on the first optimisation.
     system: Option<NormalEquations>,
 }
@@ -45,10 +47,9 @@ impl PoseGraph {
             return Err(PoseGraphError::NonFinite("a node pose"));
         }
         let id = NodeId(self.nodes.len());
-        self.nodes.push(Node {
-            pose_in_map,
-            fixed: self.nodes.is_empty(),
-        });
+        let fixed = self.nodes.is_empty();
+        self.nodes.push(Node { pose_in_map, fixed });
+        self.adjacency.add_node(fixed);
         self.system = None;
         Ok(id)
     }
@@ -67,6 +68,7 @@ impl PoseGraph {
         }
         edge.validate()?;
         let id = EdgeId(self.edges.len());
+        self.adjacency.add_edge(id.0, edge.from.0, edge.to.0);
         self.edges.push(edge);
         self.system = None;
         Ok(id)
@@ -84,6 +86,7 @@ impl PoseGraph {
             .ok_or(PoseGraphError::MissingNode(node))?;
         if entry.fixed != fixed {
             entry.fixed = fixed;
+            self.adjacency.set_fixed(node.0, fixed);
             self.system = None;
         }
         Ok(())
@@ -188,18 +191,22 @@ impl PoseGraph {
         levenberg_marquardt(&mut self.nodes, &self.edges, system, options)
     }
 
+    /// The edges at each node and which nodes are free, as they stand now.
+    pub(super) fn adjacency(&self) -> &Adjacency {
+        &self.adjacency
+    }
+
     /// Checks that every free node reaches a fixed node through edges.
     fn check_anchored(&self) -> Result<(), PoseGraphError> {
-        let adjacency = Adjacency::new(self);
         let mut reached: Vec<bool> = self.nodes.iter().map(|node| node.fixed).collect();
         let mut frontier = Vec::new();
-        for &(_, free, _) in &adjacency.from_fixed {
+        for (_, free, _) in self.adjacency.from_fixed(&self.nodes) {
             if !std::mem::replace(&mut reached[free], true) {
                 frontier.push(free);
             }
         }
         while let Some(node) = frontier.pop() {
-            for &(_, next, _) in adjacency.edges_of_free(node) {
+            for &(next, _) in self.adjacency.edges_of(node) {
                 if !std::mem::replace(&mut reached[next], true) {
                     frontier.push(next);
                 }
@@ -218,6 +225,7 @@ impl Clone for PoseGraph {
         PoseGraph {
             nodes: self.nodes.clone(),
             edges: self.edges.clone(),
+            adjacency: self.adjacency.clone(),
             system: None,
         }
     }

@@ -10,8 +10,8 @@
 //! * [`PoseGraph`], [`Node`], [`NodeId`]: the graph and its pose variables.
 //! * [`Edge`], [`EdgeId`]: a relative-pose constraint and its SE(2) error.
 //! * [`RobustKernel`]: Huber and Cauchy costs for constraints that may be wrong.
-//! * [`relative_covariances`]: how uncertain one node's pose is relative to every other;
-//!   [`relative_covariance`], relative to one.
+//! * [`relative_covariances`]: how uncertain one node's pose is relative to every other
+//!   ([`RelativeCovariances`]); [`relative_covariance`], relative to one.
 //! * [`OptimizeOptions`], [`OptimizeReport`]: how to iterate and what happened.
 //! * [`PoseGraphError`]: why an input was refused or optimisation failed.
 //! * [`synthetic`]: graphs with known true poses, for tests and benchmarks.
@@ -32,5 +32,5 @@ pub use error::PoseGraphError;
 pub use graph::PoseGraph;
 pub use node::{Node, NodeId};
 pub use optimizer::{OptimizeOptions, OptimizeReport};
-pub use relative_covariance::{relative_covariance, relative_covariances};
+pub use relative_covariance::{RelativeCovariances, relative_covariance, relative_covariances};
 pub use robust_kernel::RobustKernel;

@@ -23,49 +23,59 @@ use foldhash::fast::FixedState;
 
 use nalgebra::Matrix3;
 
-use super::adjacency::Adjacency;
 use super::graph::PoseGraph;
 use super::node::NodeId;
 use crate::geometry::Pose2;
 
 /// For every node `a` of `graph`, the covariance (x, y, theta in the source's frame; m², rad²)
 /// of the pose of `source` relative to `a` (`a_from_source`), compounded along the most certain
-/// path; `None` for nodes no edge path reaches (and for every node when `source` is not in the
-/// graph). A robust edge counts with its information scaled by its kernel's weight at the
-/// current poses, so a constraint the optimisation switched off does not make a shortcut.
-/// The graph is explored from `source` in order of growing positional variance, and each
-/// node keeps the covariance of the path that reached it first (Bosse et al. 2004's "Dijkstra
-/// projection"): an upper bound of the true marginal, found without a factorisation.
+/// path, read with [`RelativeCovariances::get`]: `None` for nodes no edge path reaches (and
+/// for every node when `source` is not in the graph). A robust edge counts with its
+/// information scaled by its kernel's weight at the current poses, so a constraint the
+/// optimisation switched off does not make a shortcut. The graph is explored from `source` in
+/// order of growing positional variance, and each node keeps the covariance of the path that
+/// reached it first (Bosse et al. 2004's "Dijkstra projection"): an upper bound of the true
+/// marginal, found without a factorisation.
 ///
 /// Fixed nodes are the map's reference: they hold one another rigidly, so every fixed node
 /// receives the covariance of the first one reached, and the walk leaves them through any of
-/// their edges as from one node. In a graph whose settled part is fixed, the walk (the
-/// priority queue and the covariances it compounds) covers the free part only; gathering
-/// the edges and filling in the answer remain one pass over the graph.
-pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> Vec<Option<Matrix3<f64>>> {
-    let nodes = graph.nodes();
-    let mut covariances: Vec<Option<Matrix3<f64>>> = vec![None; nodes.len()];
-    let Some(walk) = Walk::new(graph, source, None) else {
-        return covariances;
-    };
-    for (&node, &covariance) in &walk.covariances {
-        covariances[node] = Some(covariance);
-    }
-    if let Some(covariance) = walk.fixed_covariance {
-        for (entry, node) in covariances.iter_mut().zip(nodes) {
-            if node.fixed {
-                *entry = Some(covariance);
-            }
+/// their edges as from one node. The walk (the priority queue, the covariances it compounds
+/// and the edges it follows) covers the free part only: in a graph whose settled part is
+/// fixed, it costs what the free part holds however large the graph.
+pub fn relative_covariances(graph: &PoseGraph, source: NodeId) -> RelativeCovariances {
+    Walk::new(graph, source, None)
+        .map(|walk| RelativeCovariances {
+            covariances: walk.covariances,
+            fixed_covariance: walk.fixed_covariance,
+        })
+        .unwrap_or_default()
+}
+
+/// What [`relative_covariances`] found from one source node.
+#[derive(Debug, Clone, Default)]
+pub struct RelativeCovariances {
+    /// The free nodes' (and those fixed nodes' reached before the first was settled).
+    covariances: HashMap<usize, Matrix3<f64>, FixedState>,
+    /// Every fixed node's, once one was reached.
+    fixed_covariance: Option<Matrix3<f64>>,
+}
+
+impl RelativeCovariances {
+    /// The covariance of the source's pose relative to `node` of `graph` (the graph the walk
+    /// ran on, unchanged since); `None` when no edge path reaches it or it is not in the graph.
+    pub fn get(&self, graph: &PoseGraph, node: NodeId) -> Option<Matrix3<f64>> {
+        if graph.node(node)?.fixed {
+            self.fixed_covariance
+        } else {
+            self.covariances.get(&node.0).copied()
         }
     }
-    covariances
 }
 
 /// The covariance of the pose of `source` relative to `target` alone: what
 /// [`relative_covariances`] gives for `target`, to the same bits. The walk stops once it
 /// reaches `target`, so it walks only the nodes more certain than it: for a target near the
-/// source, a few, however large the graph. Gathering the graph's edges for the walk is still
-/// one pass over them.
+/// source, a few, however large the graph.
 pub fn relative_covariance(
     graph: &PoseGraph,
     source: NodeId,
@@ -93,7 +103,8 @@ impl Walk {
     fn new(graph: &PoseGraph, source: NodeId, until: Option<usize>) -> Option<Walk> {
         let nodes = graph.nodes();
         let source_in_map = nodes.get(source.0)?.pose_in_map;
-        let adjacency = Adjacency::new(graph);
+        let adjacency = graph.adjacency();
+        let mut leaving: Vec<(usize, usize, usize)> = Vec::new();
         let mut settled: HashSet<usize, FixedState> = HashSet::default();
         let mut walk = Walk {
             covariances: HashMap::from_iter([(source.0, Matrix3::zeros())]),
@@ -112,7 +123,8 @@ impl Walk {
                 continue;
             };
             // Edges leave the fixed nodes together, each from its own end, as from one node.
-            let leaving: &[(usize, usize, usize)] = if nodes[b].fixed {
+            leaving.clear();
+            if nodes[b].fixed {
                 if walk.fixed_covariance.is_some() {
                     continue;
                 }
@@ -120,14 +132,19 @@ impl Walk {
                 if until_fixed {
                     break;
                 }
-                &adjacency.from_fixed
+                leaving.extend(adjacency.from_fixed(nodes));
             } else {
                 if until == Some(b) {
                     break;
                 }
-                adjacency.edges_of_free(b)
-            };
-            for &(end, a, index) in leaving {
+                leaving.extend(
+                    adjacency
+                        .edges_of(b)
+                        .iter()
+                        .map(|&(a, index)| (b, a, index)),
+                );
+            }
+            for &(end, a, index) in &leaving {
                 // Once the fixed nodes are reached, all of them are.
                 if settled.contains(&a) || (nodes[a].fixed && walk.fixed_covariance.is_some()) {
                     continue;
@@ -199,6 +216,14 @@ mod tests {
     use super::*;
     use crate::pose_graph::{Edge, RobustKernel};
 
+    /// What [`relative_covariances`] gives for every node of `graph`, in node order.
+    fn every_node(graph: &PoseGraph, source: NodeId) -> Vec<Option<Matrix3<f64>>> {
+        let found = relative_covariances(graph, source);
+        (0..graph.nodes().len())
+            .map(|node| found.get(graph, NodeId(node)))
+            .collect()
+    }
+
     fn chain(steps: &[Pose2], sigmas: [f64; 3]) -> PoseGraph {
         let mut graph = PoseGraph::new();
         let mut pose = Pose2::IDENTITY;
@@ -219,7 +244,7 @@ mod tests {
         let steps = vec![Pose2::new(1.0, 0.0, 0.0); 10];
         let (sigma_m, sigma_rad) = (0.01, 0.01);
         let graph = chain(&steps, [sigma_m, sigma_m, sigma_rad]);
-        let covariances = relative_covariances(&graph, NodeId(10));
+        let covariances = every_node(&graph, NodeId(10));
         let last = covariances[0].expect("reached");
         // Seen from node 0, the last node's heading gathers all ten rotations; its lateral
         // position every rotation times the distance still to go after the node it turns
@@ -242,8 +267,8 @@ mod tests {
         let graph = chain(&steps, [0.05, 0.02, 0.03]);
         // Node 3 seen from node 0, and node 0 seen from node 3: the same uncertainty, moved
         // through the inverse.
-        let forward = relative_covariances(&graph, NodeId(3))[0].expect("reached");
-        let backward = relative_covariances(&graph, NodeId(0))[3].expect("reached");
+        let forward = every_node(&graph, NodeId(3))[0].expect("reached");
+        let backward = every_node(&graph, NodeId(0))[3].expect("reached");
         let zero_from_three = graph.nodes()[0].pose_in_map.inverse() * graph.nodes()[3].pose_in_map;
         let flip = adjoint(zero_from_three);
         let moved = flip * forward * flip.transpose();
@@ -259,13 +284,13 @@ mod tests {
             steps.push(Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2));
         }
         let mut graph = chain(&steps, [0.05, 0.05, 0.02]);
-        let far = relative_covariances(&graph, NodeId(40))[1].expect("reached");
+        let far = every_node(&graph, NodeId(40))[1].expect("reached");
         let first_to_last = graph.nodes()[0].pose_in_map.inverse() * graph.nodes()[40].pose_in_map;
         let information = Edge::information_from_std_devs(0.05, 0.05, 0.02);
         let closure = Edge::new(NodeId(0), NodeId(40), first_to_last, information)
             .with_kernel(RobustKernel::Dcs { phi: 1.0 });
         let closure_id = graph.add_edge(closure).expect("valid edge");
-        let near = relative_covariances(&graph, NodeId(40))[1].expect("reached");
+        let near = every_node(&graph, NodeId(40))[1].expect("reached");
         assert!(positional_variance(&near) < 0.1 * positional_variance(&far));
 
         // The same closure, badly wrong at the current poses: its kernel all but drops it.
@@ -273,7 +298,7 @@ mod tests {
         wrong.to_in_from = first_to_last * Pose2::new(5.0, 5.0, 1.0);
         let mut disputed = chain(&steps, [0.05, 0.05, 0.02]);
         assert_eq!(disputed.add_edge(wrong).ok(), Some(closure_id));
-        let ignored = relative_covariances(&disputed, NodeId(40))[1].expect("reached");
+        let ignored = every_node(&disputed, NodeId(40))[1].expect("reached");
         assert!(positional_variance(&ignored) > 0.9 * positional_variance(&far));
     }
 
@@ -281,18 +306,18 @@ mod tests {
     fn fixed_nodes_are_one_rigid_reference() {
         let steps = vec![Pose2::new(1.0, 0.0, 0.1); 10];
         let mut graph = chain(&steps, [0.05, 0.05, 0.02]);
-        let free = relative_covariances(&graph, NodeId(10));
+        let free = every_node(&graph, NodeId(10));
         for node in 0..=5 {
             graph.set_fixed(NodeId(node), true).expect("node");
         }
-        let fixed = relative_covariances(&graph, NodeId(10));
+        let fixed = every_node(&graph, NodeId(10));
         // Beyond the first fixed node reached (5) nothing adds: the fixed nodes do not move
         // relative to one another.
         assert!(fixed[..=5].iter().all(|&covariance| covariance == free[5]));
         assert_eq!(fixed[6..], free[6..]);
         // From inside the fixed part, every fixed node is certain and the free ones are as
         // far as their chain from node 5.
-        let inside = relative_covariances(&graph, NodeId(2));
+        let inside = every_node(&graph, NodeId(2));
         assert!(
             inside[..=5]
                 .iter()
@@ -301,7 +326,7 @@ mod tests {
         let from_five = {
             let mut unfixed = chain(&steps, [0.05, 0.05, 0.02]);
             unfixed.set_fixed(NodeId(0), false).expect("node");
-            relative_covariances(&unfixed, NodeId(5))
+            every_node(&unfixed, NodeId(5))
         };
         // The same chain seen from node 5, moved into node 2's frame.
         let two_from_five = graph.nodes()[2].pose_in_map.inverse() * graph.nodes()[5].pose_in_map;
@@ -330,7 +355,7 @@ mod tests {
             graph.set_fixed(NodeId(node), true).expect("node");
         }
         for source in [0, 4, 9, 14, 15] {
-            let every = relative_covariances(&graph, NodeId(source));
+            let every = every_node(&graph, NodeId(source));
             for (target, covariance) in every.iter().enumerate() {
                 assert_eq!(
                     relative_covariance(&graph, NodeId(source), NodeId(target)),
@@ -346,12 +371,8 @@ mod tests {
     fn unreached_nodes_and_an_unknown_source_have_none() {
         let mut graph = chain(&[Pose2::new(1.0, 0.0, 0.0)], [0.1, 0.1, 0.1]);
         let _ = graph.add_node(Pose2::new(5.0, 0.0, 0.0));
-        let covariances = relative_covariances(&graph, NodeId(0));
+        let covariances = every_node(&graph, NodeId(0));
         assert!(covariances[1].is_some() && covariances[2].is_none());
-        assert!(
-            relative_covariances(&graph, NodeId(7))
-                .iter()
-                .all(Option::is_none)
-        );
+        assert!(every_node(&graph, NodeId(7)).iter().all(Option::is_none));
     }
 }

@@ -21,7 +21,7 @@ use super::tracking_check::TrackingCheck;
 use crate::geometry::Pose2;
 use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{
-    Edge, EdgeId, NodeId, PoseGraph, relative_covariance, relative_covariances,
+    Edge, EdgeId, NodeId, PoseGraph, RelativeCovariances, relative_covariance, relative_covariances,
 };
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
@@ -339,7 +339,7 @@ impl GraphSlam {
             let covariances = if searched && needed {
                 relative_covariances(&self.graph, NodeId(node))
             } else {
-                Vec::new()
+                RelativeCovariances::default()
             };
             self.timings.closure_candidates_s += seconds_since(started);
             let (taken, beyond_window) = if searched {
@@ -351,11 +351,7 @@ impl GraphSlam {
             // whatever it would tell.
             let awaited = self.chains.awaits_confirmation(node);
             if self.options.chain_closure.enabled && (searched || awaited) && !taken {
-                let covariances = if awaited {
-                    None
-                } else {
-                    Some(&covariances[..])
-                };
+                let covariances = (!awaited).then_some(&covariances);
                 self.close_loops_in_chain(node, &scan, pose_in_map, covariances);
             }
             if self.options.uncertain_closure.enabled && !taken {
@@ -522,7 +518,7 @@ impl GraphSlam {
         node: usize,
         scan: &Scan,
         pose_in_map: Pose2,
-        covariances: &[Option<Matrix3<f64>>],
+        covariances: &RelativeCovariances,
     ) -> (bool, Vec<SubmapGuess>) {
         let options = self.closer.options().clone();
         let mut near: Vec<SubmapGuess> = Vec::new();
@@ -541,7 +537,7 @@ impl GraphSlam {
             };
             let guess_in_submap = submap_in_map.inverse() * pose_in_map;
             let distance_m = guess_in_submap.x_m.hypot(guess_in_submap.y_m);
-            let covariance = covariances.get(submap.first_node()).copied().flatten();
+            let covariance = covariances.get(&self.graph, NodeId(submap.first_node()));
             // Only the wide search reads how far the pose's uncertainty reaches.
             let [reach_m, reach_rad] = covariance
                 .filter(|_| self.options.uncertain_closure.enabled)
@@ -671,11 +667,11 @@ impl GraphSlam {
         node: usize,
         scan: &Scan,
         pose_in_map: Pose2,
-        covariances: Option<&[Option<Matrix3<f64>>]>,
+        covariances: Option<&RelativeCovariances>,
     ) {
         let nearest_earlier = self.nearest_earlier_node(node, pose_in_map);
         if let Some(covariances) = covariances {
-            let covariance = nearest_earlier.and_then(|n| covariances.get(n).copied().flatten());
+            let covariance = nearest_earlier.and_then(|n| covariances.get(&self.graph, NodeId(n)));
             if !self.is_informative(covariance.as_ref()) {
                 self.stats.closure_searches_skipped += 1;
                 return;
