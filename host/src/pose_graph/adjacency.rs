@@ -50,7 +50,7 @@ impl Adjacency {
     /// edge order: what a walk leaves the fixed nodes through. Gathered from the free nodes'
     /// edges, so it costs what the free part holds. An edge between two fixed nodes is left
     /// out: the fixed nodes do not move relative to one another.
-    pub(super) fn from_fixed(&self, nodes: &[Node]) -> Vec<(usize, usize, usize)> {
+    pub(super) fn edges_leaving_fixed(&self, nodes: &[Node]) -> Vec<(usize, usize, usize)> {
         let mut leaving: Vec<(usize, usize, usize)> = self
             .free
             .iter()
@@ -129,6 +129,6 @@ mod tests {
             )
             .collect();
         assert!(!leaving.is_empty());
-        assert_eq!(adjacency.from_fixed(&nodes), leaving);
+        assert_eq!(adjacency.edges_leaving_fixed(&nodes), leaving);
     }
 }

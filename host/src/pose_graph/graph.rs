@@ -200,7 +200,7 @@ impl PoseGraph {
     fn check_anchored(&self) -> Result<(), PoseGraphError> {
         let mut reached: Vec<bool> = self.nodes.iter().map(|node| node.fixed).collect();
         let mut frontier = Vec::new();
-        for (_, free, _) in self.adjacency.from_fixed(&self.nodes) {
+        for (_, free, _) in self.adjacency.edges_leaving_fixed(&self.nodes) {
             if !std::mem::replace(&mut reached[free], true) {
                 frontier.push(free);
             }

@@ -132,7 +132,7 @@ impl Walk {
                 if until_fixed {
                     break;
                 }
-                leaving.extend(adjacency.from_fixed(nodes));
+                leaving.extend(adjacency.edges_leaving_fixed(nodes));
             } else {
                 if until == Some(b) {
                     break;
