@@ -37,7 +37,11 @@ pub struct DemoArgs {
     /// Where the outputs go.
     #[arg(long, default_value = "demo-out")]
     out: PathBuf,
-    /// Run as fast as the machine allows instead of at the wall clock.
+    /// Run as fast as the machine allows instead of at the wall clock. The emulated board's
+    /// clock then runs ahead of the host's, at whatever rate the machine allows, and the
+    /// daemon's board-to-host time mapping (made for a real board's crystal) steps at each
+    /// time sync: the outputs test the chain, and GPS fixes paired with poses across a step
+    /// are set aside as receiver jumps.
     #[arg(long)]
     fast: bool,
     /// After the drive, keep the web view up this many seconds.
