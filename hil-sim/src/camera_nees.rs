@@ -11,11 +11,14 @@
 //! Applications to Tracking and Navigation", §5.4), and the product's target is 90 %.
 //!
 //! What is tested is what the filter estimates: the camera relative to its current local
-//! map's origin (the camera where that map started; its pose is exact there, so the frame a
-//! map starts in is not counted). The position is left out: a single camera measures it only
-//! up to a scale the filter does not observe, so its error is no test of the covariance.
+//! map's origin. That is the camera where the map started, its pose exact there (so the
+//! frame a map starts in is not counted), or, for a camera held level
+//! ([`host::camera::LevelPrior`]), the level frame of its heading there: the heading is
+//! relative to the map's start, the tilt from level absolute, with its uncertainty. The
+//! position is left out: a single camera measures it only up to a scale the filter does not
+//! observe, so its error is no test of the covariance.
 
-use host::camera::{MonoSlam, MonoSlamOptions};
+use host::camera::{CameraPipelineOptions, MonoSlam, MonoSlamOptions, level_frame};
 use nalgebra::{Matrix3, UnitQuaternion};
 use serde::Serialize;
 
@@ -46,7 +49,8 @@ pub struct CameraNeesOptions {
 }
 
 impl Default for CameraNeesOptions {
-    /// Outdoor, 10 runs of 10 s at 10 Hz from seed 1, no walkers, the default rig and filter.
+    /// Outdoor, 10 runs of 10 s at 10 Hz from seed 1, no walkers, the default rig, and the
+    /// camera method as the robot runs it (held level, [`CameraPipelineOptions`]).
     fn default() -> Self {
         CameraNeesOptions {
             world: WorldKind::Outdoor,
@@ -56,7 +60,7 @@ impl Default for CameraNeesOptions {
             rate_hz: 10.0,
             movers: 0,
             rig: CameraRigOptions::default(),
-            slam: MonoSlamOptions::default(),
+            slam: CameraPipelineOptions::default().slam,
             progress: false,
         }
     }
@@ -230,7 +234,12 @@ fn run_one(
         let report = slam.process(t_s, &image);
         if slam.stats().local_maps != local_maps {
             local_maps = slam.stats().local_maps;
-            origin = truth;
+            // The map's frame: the camera there or, held level, the level frame of its
+            // heading (in the first camera's frame, whose y axis is down).
+            origin = match options.slam.level {
+                Some(_) => first * level_frame(first.inverse() * truth),
+                None => truth,
+            };
         }
         let filter = slam.filter();
         camera_nees.push(orientation_nees(

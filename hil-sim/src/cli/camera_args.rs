@@ -1,6 +1,7 @@
 //! The flags that choose the camera method, shared by `run` and `demo`.
 
 use hil_sim::run::CameraRunOptions;
+use host::camera::LevelPrior;
 
 /// What estimates the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -26,6 +27,30 @@ pub struct CameraArgs {
     /// People walking about near the route, seen by the camera (`--method camera`).
     #[arg(long, default_value_t = 0)]
     movers: usize,
+    /// How far the robot's camera, mounted level, tilts as it drives (the ground's slope),
+    /// standard deviation in degrees: the camera method holds its roll and pitch to it.
+    /// 0: not held level, as for a hand-held camera (`--method camera`) [default: 3].
+    #[arg(long)]
+    camera_tilt_deg: Option<f64>,
+}
+
+/// The camera method's level prior for `--camera-tilt-deg` (`None`: the default).
+///
+/// # Errors
+/// A tilt that is negative or not a number.
+pub fn level_prior(tilt_deg: Option<f64>) -> Result<Option<LevelPrior>, String> {
+    let Some(tilt_deg) = tilt_deg else {
+        return Ok(Some(LevelPrior::default()));
+    };
+    if !(tilt_deg.is_finite() && tilt_deg >= 0.0) {
+        return Err(format!(
+            "--camera-tilt-deg must be 0 (not held level) or more degrees, not {tilt_deg}"
+        ));
+    }
+    Ok((tilt_deg > 0.0).then(|| LevelPrior {
+        tilt_sigma_rad: tilt_deg.to_radians(),
+        ..LevelPrior::default()
+    }))
 }
 
 impl CameraArgs {
@@ -34,16 +59,22 @@ impl CameraArgs {
     /// # Errors
     /// Camera flags without `--method camera`.
     pub fn options(&self) -> Result<Option<CameraRunOptions>, String> {
-        if self.method == Method::Laser && (self.movers > 0 || self.camera_rate.is_some()) {
+        if self.method == Method::Laser
+            && (self.movers > 0 || self.camera_rate.is_some() || self.camera_tilt_deg.is_some())
+        {
             return Err(
-                "--movers and --camera-rate are the camera's: they need --method camera".into(),
+                "--movers, --camera-rate and --camera-tilt-deg are the camera's: they \
+                        need --method camera"
+                    .into(),
             );
         }
+        let level = level_prior(self.camera_tilt_deg)?;
         Ok((self.method == Method::Camera).then(|| CameraRunOptions {
             rate_hz: self
                 .camera_rate
                 .unwrap_or(CameraRunOptions::default().rate_hz),
             movers: self.movers,
+            level,
             ..CameraRunOptions::default()
         }))
     }

@@ -41,6 +41,11 @@ pub struct NeesArgs {
     /// Camera only: people walking about near the route.
     #[arg(long, default_value_t = 0)]
     movers: usize,
+    /// Camera only: how far the robot's camera, mounted level, tilts as it drives, standard
+    /// deviation in degrees; the camera method holds its roll and pitch to it. 0: not held
+    /// level, as for a hand-held camera [default: 3].
+    #[arg(long)]
+    camera_tilt_deg: Option<f64>,
     /// Landmarks per local map of the submap filter (ekf-submap).
     #[arg(long, default_value_t = 30)]
     local_map_landmarks: usize,
@@ -60,9 +65,11 @@ pub fn run(args: NeesArgs) -> CliResult {
     if args.method == Method::Camera {
         return run_camera(args);
     }
-    if args.movers > 0 {
+    if args.movers > 0 || args.camera_tilt_deg.is_some() {
         return Err(
-            "--movers is for --method camera: the laser filters' world has no walkers".into(),
+            "--movers and --camera-tilt-deg are for --method camera: the laser \
+                    filters' world has no walkers and no camera"
+                .into(),
         );
     }
     let options = hil_sim::nees::NeesOptions {
@@ -113,6 +120,10 @@ fn run_camera(args: NeesArgs) -> CliResult {
             .ok_or("--seed and --first-run run past the largest seed")?,
         duration_s: args.duration.unwrap_or(defaults.duration_s),
         movers: args.movers,
+        slam: host::camera::MonoSlamOptions {
+            level: super::camera_args::level_prior(args.camera_tilt_deg)?,
+            ..defaults.slam
+        },
         progress: true,
         ..defaults
     };

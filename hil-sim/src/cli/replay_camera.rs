@@ -32,6 +32,11 @@ pub struct ReplayCameraArgs {
     /// its position in the first camera's frame: x right, y down, z forward); `#` comments.
     #[arg(long, value_name = "FILE")]
     target: Option<PathBuf>,
+    /// The camera was mounted level on a ground vehicle, and tilted from level by about this
+    /// much as it drove (the ground's slope), standard deviation in degrees: the method holds
+    /// its roll and pitch to it. Without it the camera may point anywhere (hand-held).
+    #[arg(long, value_name = "DEG")]
+    camera_tilt_deg: Option<f64>,
 }
 
 /// Runs the camera method; prints the summary on stdout.
@@ -41,7 +46,13 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
         out: args.out,
         first_frames: args.first_frames.map(|n| n as usize),
         target: args.target,
-        slam: host::camera::MonoSlamOptions::default(),
+        slam: host::camera::MonoSlamOptions {
+            level: match args.camera_tilt_deg {
+                Some(tilt_deg) => super::camera_args::level_prior(Some(tilt_deg))?,
+                None => None,
+            },
+            ..host::camera::MonoSlamOptions::default()
+        },
         progress: true,
     };
     let summary = hil_sim::camera_replay::replay_camera(&options)?;

@@ -7,7 +7,7 @@ use std::sync::mpsc::{self, Receiver};
 use std::thread;
 use std::time::Instant;
 
-use host::camera::PinholeCamera;
+use host::camera::{LevelPrior, PinholeCamera};
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -22,15 +22,19 @@ pub struct CameraRunOptions {
     pub movers: usize,
     /// The camera and how it is mounted.
     pub rig: CameraRigOptions,
+    /// How the camera method holds the camera level (`None`: it does not).
+    pub level: Option<LevelPrior>,
 }
 
 impl Default for CameraRunOptions {
-    /// 10 frames a second, no walkers, the default rig.
+    /// 10 frames a second, no walkers, the default rig, held level as the robot's camera
+    /// pipeline holds it by default.
     fn default() -> Self {
         CameraRunOptions {
             rate_hz: 10.0,
             movers: 0,
             rig: CameraRigOptions::default(),
+            level: Some(LevelPrior::default()),
         }
     }
 }
@@ -60,6 +64,7 @@ const RENDERED_AHEAD: usize = 3;
 #[derive(Debug)]
 pub struct CameraFeed {
     camera: PinholeCamera,
+    level: Option<LevelPrior>,
     period_us: f64,
     next_frame: u64,
     /// The renderer's frames; it stops when this end is dropped.
@@ -90,6 +95,7 @@ impl CameraFeed {
             })?;
         Ok(CameraFeed {
             camera,
+            level: options.level,
             period_us,
             next_frame: 0,
             frames,
@@ -99,6 +105,11 @@ impl CameraFeed {
     /// The camera.
     pub fn camera(&self) -> &host::camera::PinholeCamera {
         &self.camera
+    }
+
+    /// How the camera method holds the camera level (`None`: it does not).
+    pub fn level(&self) -> Option<LevelPrior> {
+        self.level
     }
 
     /// The next frame if its time is at or before `t_us`.

@@ -11,7 +11,9 @@
 
 use std::io;
 
-use host::camera::{CameraPipeline, CameraPipelineOptions, PinholeCamera};
+use host::camera::{
+    CameraPipeline, CameraPipelineOptions, LevelPrior, MonoSlamOptions, PinholeCamera,
+};
 use host::ekf_slam::{EkfPipeline, EkfPipelineStats, MappedLandmark};
 use host::geometry::Pose2;
 use host::link::SensorEvent;
@@ -56,14 +58,24 @@ impl Estimator {
         Estimator::Ekf(Box::new(EkfPipeline::new(&options)))
     }
 
-    /// The camera method with `camera`, its local metric frame at `datum_lat_lon_deg`.
+    /// The camera method with `camera`, held `level` (`None`: not held level), its local
+    /// metric frame at `datum_lat_lon_deg`.
     ///
     /// # Errors
     /// The datum is not a latitude and longitude.
-    pub fn camera(camera: PinholeCamera, datum_lat_lon_deg: [f64; 2]) -> io::Result<Estimator> {
+    pub fn camera(
+        camera: PinholeCamera,
+        level: Option<LevelPrior>,
+        datum_lat_lon_deg: [f64; 2],
+    ) -> io::Result<Estimator> {
+        let defaults = CameraPipelineOptions::default();
         let options = CameraPipelineOptions {
             datum_lat_lon_deg: Some(datum_lat_lon_deg),
-            ..CameraPipelineOptions::default()
+            slam: MonoSlamOptions {
+                level,
+                ..defaults.slam
+            },
+            ..defaults
         };
         let pipeline = CameraPipeline::new(camera, options).map_err(io::Error::other)?;
         Ok(Estimator::Camera {

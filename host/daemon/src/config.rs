@@ -281,6 +281,10 @@ pub struct CameraConfig {
     /// JPEG quality (1–100) of frames the camera gives uncompressed, as they are recorded and
     /// shown; MJPEG frames are kept as they come.
     pub jpeg_quality: u8,
+    /// How far the camera, mounted level, tilts from level as the robot drives (the ground's
+    /// slope), standard deviation in degrees; the camera method holds its roll and pitch to
+    /// it (`host::camera::LevelPrior`). 0: the camera is not held level.
+    pub tilt_sigma_deg: f64,
 }
 
 impl Default for CameraConfig {
@@ -296,6 +300,7 @@ impl Default for CameraConfig {
             intrinsics_px: [focal_px, focal_px, 319.5, 239.5],
             distortion: [0.0; 5],
             jpeg_quality: 85,
+            tilt_sigma_deg: host::camera::LevelPrior::DEFAULT_TILT_DEG,
         }
     }
 }
@@ -308,6 +313,14 @@ impl CameraConfig {
         self.intrinsics_px = [camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px];
         let ([k1, k2, k3], [p1, p2]) = (camera.radial, camera.tangential);
         self.distortion = [k1, k2, p1, p2, k3];
+    }
+
+    /// How the camera method holds the camera level (`None`: it does not).
+    pub fn level_prior(&self) -> Option<host::camera::LevelPrior> {
+        (self.tilt_sigma_deg > 0.0).then(|| host::camera::LevelPrior {
+            tilt_sigma_rad: self.tilt_sigma_deg.to_radians(),
+            ..host::camera::LevelPrior::default()
+        })
     }
 
     /// The camera model of the configuration.
@@ -462,6 +475,12 @@ impl DaemonConfig {
             return Err(ConfigError::Invalid(
                 "camera.width_px and camera.height_px must be at least 1".into(),
             ));
+        }
+        if !(self.camera.tilt_sigma_deg.is_finite() && self.camera.tilt_sigma_deg >= 0.0) {
+            return Err(ConfigError::Invalid(format!(
+                "camera.tilt_sigma_deg must be 0 (not held level) or more, got {}",
+                self.camera.tilt_sigma_deg
+            )));
         }
         if !(1..=100).contains(&self.camera.jpeg_quality) {
             return Err(ConfigError::Invalid(format!(

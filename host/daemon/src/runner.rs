@@ -558,11 +558,16 @@ fn configured_camera(config: &DaemonConfig) -> Result<Option<Box<dyn FrameSource
 
 /// The camera method of the configuration.
 pub(crate) fn camera_pipeline(config: &DaemonConfig) -> Result<CameraPipeline, DaemonError> {
+    let defaults = CameraPipelineOptions::default();
     CameraPipeline::new(
         config.camera.pinhole(),
         CameraPipelineOptions {
             datum_lat_lon_deg: config.georef.datum_lat_lon_deg,
-            ..CameraPipelineOptions::default()
+            slam: host::camera::MonoSlamOptions {
+                level: config.camera.level_prior(),
+                ..defaults.slam
+            },
+            ..defaults
         },
     )
     .map_err(|e| DaemonError::Camera(format!("camera method: {e}")))

@@ -35,7 +35,7 @@ use std::collections::{HashSet, VecDeque};
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats, PinholeCamera};
+use super::{FrameReport, LevelPrior, MonoSlam, MonoSlamOptions, MonoSlamStats, PinholeCamera};
 use crate::geometry::Pose2;
 use crate::georef::{
     AlignmentPair, GpsMeasurement, GpsMeasurementOptions, LocalFrame, SimilarityAlignment2d,
@@ -65,11 +65,15 @@ pub struct CameraPipelineOptions {
 }
 
 impl Default for CameraPipelineOptions {
-    /// The camera method's defaults, the GPS defaults, the datum at the first fix, aligned
-    /// over 20 m, fixes paired within 0.5 s of a frame.
+    /// The camera method's defaults held level as a camera on a ground robot is
+    /// ([`LevelPrior`]'s default), the GPS defaults, the datum at the first fix, aligned over
+    /// 20 m, fixes paired within 0.5 s of a frame.
     fn default() -> Self {
         CameraPipelineOptions {
-            slam: MonoSlamOptions::default(),
+            slam: MonoSlamOptions {
+                level: Some(LevelPrior::default()),
+                ..MonoSlamOptions::default()
+            },
             gps: GpsMeasurementOptions::default(),
             datum_lat_lon_deg: None,
             alignment_span_m: 20.0,

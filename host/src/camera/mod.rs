@@ -8,6 +8,7 @@
 //!   first sighting, warped to the view of the camera now.
 //! * [`history_memory`]: finished local maps' features, recognised and used again.
 //! * [`known_target`]: a target of known corners that gives a run its scale.
+//! * [`level_prior`]: a camera held level on a ground robot, [`LevelPrior`].
 //! * [`mono_ekf`]: the filter (state, motion and measurement models, inverse depth).
 //! * [`mono_slam`]: the method frame by frame, [`MonoSlam`].
 //! * [`motion_segmentation`]: points that move on their own, kept out of the map.
@@ -17,6 +18,7 @@ pub mod appearance;
 pub mod camera_pipeline;
 pub mod history_memory;
 pub mod known_target;
+pub mod level_prior;
 pub mod mono_ekf;
 pub mod mono_slam;
 pub mod motion_segmentation;
@@ -27,6 +29,7 @@ pub mod trajectory_error;
 
 pub use camera_pipeline::{CameraPipeline, CameraPipelineOptions, CameraPipelineStats, CameraPose};
 pub use known_target::{KnownTarget, TargetCorner, TargetError, parse_known_target};
+pub use level_prior::{LevelPrior, level_frame};
 pub use mono_ekf::{MonoEkf, MonoEkfOptions};
 pub use mono_slam::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats};
 pub use pinhole::PinholeCamera;

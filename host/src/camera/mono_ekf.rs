@@ -20,6 +20,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector3};
 
+use super::level_prior::level_frame;
 use super::pinhole::PinholeCamera;
 
 /// Numbers in the camera part of the state.
@@ -576,6 +577,17 @@ impl MonoEkf {
         let p_ht = &self.p * h.transpose();
         let sigma2 = self.options.pixel_sigma_px * self.options.pixel_sigma_px;
         let s = &h * &p_ht + DMatrix::identity(m, m) * sigma2;
+        self.apply_update(&p_ht, s, &innovation)
+    }
+
+    /// The Kalman update with `P Hᵀ`, the innovation covariance `S` and the innovation;
+    /// false (and the state left) when `S` is not positive definite.
+    fn apply_update(
+        &mut self,
+        p_ht: &DMatrix<f64>,
+        s: DMatrix<f64>,
+        innovation: &DVector<f64>,
+    ) -> bool {
         let Some(cholesky) = s.cholesky() else {
             return false;
         };
@@ -586,6 +598,29 @@ impl MonoEkf {
         self.p = (&self.p + self.p.transpose()) * 0.5;
         self.normalise_quaternion();
         true
+    }
+
+    /// Updates with the camera's tilt: a camera mounted level on a ground robot has its x
+    /// (right) and z (forward) axes horizontal, up to the ground's slope. `down_in_world` is
+    /// the unit vector along gravity in the filter's world frame; the measurement is the
+    /// component of that vector along the camera's x and z axes (the sines of roll and pitch),
+    /// zero with standard deviation `sigma_rad` each. Returns false (and leaves the state) when
+    /// the innovation covariance is not positive definite.
+    pub fn update_level(&mut self, down_in_world: &Vector3<f64>, sigma_rad: f64) -> bool {
+        let tilt = |q: &[f64]| -> Vec<f64> {
+            let down_in_camera = quaternion(q).inverse() * down_in_world;
+            vec![down_in_camera.x, down_in_camera.z]
+        };
+        let q: Vec<f64> = self.x.rows(3, 4).iter().copied().collect();
+        let Some(h) = jacobian(&q, 2, |q| Some(tilt(q))) else {
+            return false;
+        };
+        let predicted = tilt(&q);
+        let innovation = DVector::from_vec(vec![-predicted[0], -predicted[1]]);
+        // Only the orientation's four columns of H are not zero.
+        let p_ht = self.p.columns(3, 4) * h.transpose();
+        let s = &h * p_ht.rows(3, 4) + DMatrix::identity(2, 2) * (sigma_rad * sigma_rad);
+        self.apply_update(&p_ht, s, &innovation)
     }
 
     /// Adds a point of known position (world frame, m), uncorrelated with the rest, each
@@ -736,15 +771,23 @@ impl MonoEkf {
     /// feature expressed relative to it, and the covariance carried through the change, so that
     /// each feature keeps its uncertainty relative to the camera. Returns the new frame's
     /// position and orientation in the old one.
-    pub fn rebase(&mut self) -> (Vector3<f64>, UnitQuaternion<f64>) {
-        let old_from_new = (self.position_m(), self.orientation());
+    ///
+    /// With `level`, the world's y axis is down and stays so: the new frame is turned only
+    /// by the camera's heading about it, and the camera keeps its tilt from level, and that
+    /// tilt's uncertainty, in the new frame (a level prior, [`Self::update_level`], then holds
+    /// the tilt itself, not only its change since the map started).
+    pub fn rebase(&mut self, level: bool) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        let frame_rotation = |q: UnitQuaternion<f64>| if level { level_frame(q) } else { q };
+        let old_from_new = (self.position_m(), frame_rotation(self.orientation()));
         let kinds = self.kinds.clone();
         let offsets = self.offsets.clone();
         let transform = |x: &[f64]| -> Option<Vec<f64>> {
             let r = Vector3::new(x[0], x[1], x[2]);
-            let new_from_old = quaternion(&x[3..7]).inverse();
+            let camera = quaternion(&x[3..7]);
+            let new_from_old = frame_rotation(camera).inverse();
+            let q = (new_from_old * camera).into_inner();
             let mut out = x.to_vec();
-            out[..7].copy_from_slice(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+            out[..7].copy_from_slice(&[0.0, 0.0, 0.0, q.w, q.i, q.j, q.k]);
             let v = new_from_old * Vector3::new(x[7], x[8], x[9]);
             out[7..10].copy_from_slice(v.as_slice());
             let translation = -(new_from_old * r);
@@ -795,6 +838,51 @@ mod tests {
 
     fn camera() -> PinholeCamera {
         PinholeCamera::ideal(500.0, 500.0, 320.0, 240.0, [640, 480])
+    }
+
+    #[test]
+    fn the_level_prior_pulls_roll_and_pitch_to_level_and_leaves_the_heading() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        // Turned 40° about the vertical (y, down), then pitched 6° and rolled 4°.
+        let heading = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.7);
+        let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 6f64.to_radians())
+            * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 4f64.to_radians());
+        let q = heading * tilt;
+        filter.x.as_mut_slice()[3..7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+        // The quaternion uncertain by about 10° about every axis.
+        let g = jacobian(&[0.0; 3], 4, |d| {
+            let turned = UnitQuaternion::from_scaled_axis(Vector3::new(d[0], d[1], d[2])) * q;
+            Some(vec![turned.w, turned.i, turned.j, turned.k])
+        })
+        .unwrap();
+        let covariance = &g * (DMatrix::identity(3, 3) * 0.03) * g.transpose();
+        filter.p.view_mut((3, 3), (4, 4)).copy_from(&covariance);
+        let tilt_of = |filter: &MonoEkf| {
+            let down_in_camera = filter.orientation().inverse() * Vector3::y();
+            down_in_camera.x.hypot(down_in_camera.z).asin().to_degrees()
+        };
+        let heading_of = |filter: &MonoEkf| {
+            let forward = filter.orientation() * Vector3::z();
+            forward.x.atan2(forward.z).to_degrees()
+        };
+        assert!(tilt_of(&filter) > 7.0);
+        for _ in 0..5 {
+            assert!(filter.update_level(&Vector3::y(), 0.5f64.to_radians()));
+        }
+        assert!(tilt_of(&filter) < 0.2, "{:.2}° off level", tilt_of(&filter));
+        // The heading of the optical axis stays where the features would leave it.
+        let before = q * Vector3::z();
+        let heading_before = before.x.atan2(before.z).to_degrees();
+        assert!(
+            (heading_of(&filter) - heading_before).abs() < 1.0,
+            "{:.2}° against {heading_before:.2}°",
+            heading_of(&filter)
+        );
+        // Roll and pitch are now known to about the prior's width, the heading as before.
+        let covariance = filter.orientation_covariance();
+        assert!(covariance[(0, 0)].sqrt().to_degrees() < 0.5);
+        assert!(covariance[(2, 2)].sqrt().to_degrees() < 0.5);
+        assert!(covariance[(1, 1)].sqrt() > 0.1, "{covariance}");
     }
 
     #[test]
@@ -905,8 +993,8 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_new_frame_at_the_camera_changes_no_pixel_and_no_point() {
+    /// A filter that walked sideways past four points, and the points.
+    fn walked_past_four_points() -> (MonoEkf, [Vector3<f64>; 4]) {
         let cam = camera();
         let mut filter = MonoEkf::new(cam, MonoEkfOptions::default());
         let points = [
@@ -919,17 +1007,20 @@ mod tests {
             filter.add_feature(cam.project(p).expect("in front"));
         }
         walk_sideways(&mut filter, &points);
-        let pixels: Vec<[f64; 2]> = (0..points.len())
-            .map(|i| filter.pixel(i).unwrap())
-            .collect();
-        let in_old: Vec<Vector3<f64>> = (0..points.len())
+        (filter, points)
+    }
+
+    /// Rebases `filter` and checks that no feature's pixel or point moved; returns the new
+    /// frame's position and orientation in the old one.
+    fn rebase_in_place(filter: &mut MonoEkf, level: bool) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        let features = filter.num_features();
+        let pixels: Vec<[f64; 2]> = (0..features).map(|i| filter.pixel(i).unwrap()).collect();
+        let in_old: Vec<Vector3<f64>> = (0..features)
             .map(|i| filter.point_in_world(i).unwrap())
             .collect();
-        let (origin, rotation) = filter.rebase();
+        let (origin, rotation) = filter.rebase(level);
         assert!(filter.position_m().norm() < 1e-12);
-        assert!(filter.orientation().angle() < 1e-12);
-        assert!(filter.p.view((0, 0), (7, 7)).norm() < 1e-9);
-        for i in 0..points.len() {
+        for i in 0..features {
             let pixel = filter.pixel(i).unwrap();
             assert!((pixel[0] - pixels[i][0]).hypot(pixel[1] - pixels[i][1]) < 1e-6);
             let back = rotation * filter.point_in_world(i).unwrap() + origin;
@@ -939,8 +1030,42 @@ mod tests {
                 in_old[i]
             );
         }
+        (origin, rotation)
+    }
+
+    #[test]
+    fn a_new_frame_at_the_camera_changes_no_pixel_and_no_point() {
+        let (mut filter, _) = walked_past_four_points();
+        rebase_in_place(&mut filter, false);
+        assert!(filter.orientation().angle() < 1e-12);
+        assert!(filter.p.view((0, 0), (7, 7)).norm() < 1e-9);
         // Each feature keeps its uncertainty relative to the camera: not less than before.
         assert!(filter.p.view((CAMERA_STATE, CAMERA_STATE), (6, 6)).norm() > 0.0);
+    }
+
+    #[test]
+    fn a_level_frame_turns_with_the_heading_and_leaves_the_camera_its_tilt() {
+        let (mut filter, _) = walked_past_four_points();
+        // Turned 6° about the vertical and pitched 3°, the orientation uncertain.
+        let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 3f64.to_radians());
+        let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.1) * tilt;
+        filter.x.as_mut_slice()[3..7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+        let orientation = DMatrix::identity(4, 4) * 1e-3;
+        filter.p.view_mut((3, 3), (4, 4)).copy_from(&orientation);
+        let (_, rotation) = rebase_in_place(&mut filter, true);
+        // The frame turned by the heading only; the camera keeps its 3° of pitch.
+        assert!((rotation.angle() - 0.1).abs() < 1e-9);
+        assert!((rotation.axis().unwrap().y - 1.0).abs() < 1e-9);
+        assert!(filter.orientation().angle_to(&tilt) < 1e-9);
+        // The tilt stays uncertain; the heading about the new frame's vertical is exact (a
+        // turn about the vertical is left only by the pitched camera's turn about its roll
+        // axis, sin 3° of it).
+        let covariance = filter.orientation_covariance();
+        assert!(covariance[(0, 0)] > 1e-4 && covariance[(2, 2)] > 1e-4);
+        assert!(
+            covariance[(1, 1)] < 0.01 * covariance[(2, 2)],
+            "{covariance}"
+        );
     }
 
     #[test]

@@ -32,6 +32,7 @@ use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 use super::appearance::Appearance;
 use super::history_memory::{CameraHistory, CameraHistoryOptions};
 use super::known_target::{KnownTarget, TargetError};
+use super::level_prior::LevelPrior;
 use super::mono_ekf::{
     FeatureKind, MonoEkf, MonoEkfOptions, Prediction, moved_feature, moved_feature_with_covariance,
 };
@@ -85,6 +86,9 @@ pub struct MonoSlamOptions {
     pub target_sigma_m: f64,
     /// Places seen before, recognised and their features used again.
     pub history: CameraHistoryOptions,
+    /// The camera is held level (on a ground robot), and how level; `None` for a camera that
+    /// may point anywhere (hand-held, or a recorded sequence).
+    pub level: Option<LevelPrior>,
 }
 
 impl Default for MonoSlamOptions {
@@ -107,6 +111,7 @@ impl Default for MonoSlamOptions {
             motion_segmentation: MotionSegmentationOptions::default(),
             target_sigma_m: 0.005,
             history: CameraHistoryOptions::default(),
+            level: None,
         }
     }
 }
@@ -383,7 +388,7 @@ impl MonoSlam {
         }
         let (position_variance, angle_variance) = self.filter.pose_variances();
         self.history.start_map(position_variance, angle_variance);
-        let (origin, rotation) = self.filter.rebase();
+        let (origin, rotation) = self.filter.rebase(self.options.level.is_some());
         let new_from_old = rotation.inverse();
         let new_from_old_origin = -(new_from_old * origin);
         for track in &mut self.tracks {
@@ -421,7 +426,14 @@ impl MonoSlam {
     /// Processes the frame taken at `time_s`.
     pub fn process(&mut self, time_s: f64, image: &GrayImage) -> FrameReport {
         if let Some(last) = self.last_time_s {
-            self.filter.predict(time_s - last);
+            let dt_s = time_s - last;
+            self.filter.predict(dt_s);
+            if let Some(level) = self.options.level {
+                // Gravity in the current local map's frame (the world frame's y is down).
+                let down_in_local = self.world_from_local.1.inverse() * Vector3::y();
+                self.filter
+                    .update_level(&down_in_local, level.sigma_per_frame_rad(dt_s));
+            }
         }
         self.last_time_s = Some(time_s);
         self.place_recognised = None;
