@@ -458,7 +458,7 @@ fn set_camera(config: &mut DaemonConfig, camera: &PinholeCamera, level: Option<L
     config.slam.method = SlamMethod::Camera;
     config.camera.device = Some("hil-sim camera".into());
     config.camera.set_model(camera);
-    config.camera.tilt_sigma_deg = level.map_or(0.0, |l| l.tilt_sigma_rad.to_degrees());
+    config.camera.tilt_sigma_deg = LevelPrior::tilt_deg(level);
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.

@@ -39,18 +39,12 @@ pub struct CameraArgs {
 /// # Errors
 /// A tilt that is negative or not a number.
 pub fn level_prior(tilt_deg: Option<f64>) -> Result<Option<LevelPrior>, String> {
-    let Some(tilt_deg) = tilt_deg else {
-        return Ok(Some(LevelPrior::default()));
-    };
-    if !(tilt_deg.is_finite() && tilt_deg >= 0.0) {
-        return Err(format!(
-            "--camera-tilt-deg must be 0 (not held level) or more degrees, not {tilt_deg}"
-        ));
+    match tilt_deg {
+        None => Ok(Some(LevelPrior::default())),
+        Some(tilt_deg) => {
+            LevelPrior::from_tilt_deg(tilt_deg).map_err(|e| format!("--camera-tilt-deg: {e}"))
+        }
     }
-    Ok((tilt_deg > 0.0).then(|| LevelPrior {
-        tilt_sigma_rad: tilt_deg.to_radians(),
-        ..LevelPrior::default()
-    }))
 }
 
 impl CameraArgs {

@@ -47,10 +47,11 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
         first_frames: args.first_frames.map(|n| n as usize),
         target: args.target,
         slam: host::camera::MonoSlamOptions {
-            level: match args.camera_tilt_deg {
-                Some(tilt_deg) => super::camera_args::level_prior(Some(tilt_deg))?,
-                None => None,
-            },
+            level: args
+                .camera_tilt_deg
+                .map(|tilt_deg| super::camera_args::level_prior(Some(tilt_deg)))
+                .transpose()?
+                .flatten(),
             ..host::camera::MonoSlamOptions::default()
         },
         progress: true,

@@ -34,7 +34,7 @@ impl Default for CameraRunOptions {
             rate_hz: 10.0,
             movers: 0,
             rig: CameraRigOptions::default(),
-            level: Some(LevelPrior::default()),
+            level: host::camera::CameraPipelineOptions::default().slam.level,
         }
     }
 }

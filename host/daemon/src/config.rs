@@ -317,10 +317,10 @@ impl CameraConfig {
 
     /// How the camera method holds the camera level (`None`: it does not).
     pub fn level_prior(&self) -> Option<host::camera::LevelPrior> {
-        (self.tilt_sigma_deg > 0.0).then(|| host::camera::LevelPrior {
-            tilt_sigma_rad: self.tilt_sigma_deg.to_radians(),
-            ..host::camera::LevelPrior::default()
-        })
+        // A tilt `validate` refuses is not held level.
+        host::camera::LevelPrior::from_tilt_deg(self.tilt_sigma_deg)
+            .ok()
+            .flatten()
     }
 
     /// The camera model of the configuration.
@@ -476,12 +476,8 @@ impl DaemonConfig {
                 "camera.width_px and camera.height_px must be at least 1".into(),
             ));
         }
-        if !(self.camera.tilt_sigma_deg.is_finite() && self.camera.tilt_sigma_deg >= 0.0) {
-            return Err(ConfigError::Invalid(format!(
-                "camera.tilt_sigma_deg must be 0 (not held level) or more, got {}",
-                self.camera.tilt_sigma_deg
-            )));
-        }
+        host::camera::LevelPrior::from_tilt_deg(self.camera.tilt_sigma_deg)
+            .map_err(|e| ConfigError::Invalid(format!("camera.tilt_sigma_deg: {e}")))?;
         if !(1..=100).contains(&self.camera.jpeg_quality) {
             return Err(ConfigError::Invalid(format!(
                 "camera.jpeg_quality must be 1 to 100, got {}",

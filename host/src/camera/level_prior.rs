@@ -48,6 +48,28 @@ impl LevelPrior {
     /// The default standard deviation of the tilt, degrees.
     pub const DEFAULT_TILT_DEG: f64 = 3.0;
 
+    /// The prior of a camera whose tilt has a standard deviation of `tilt_deg` degrees, over
+    /// the default correlation time; `None` for 0, a camera not held level.
+    ///
+    /// # Errors
+    /// A tilt that is negative or not a number.
+    pub fn from_tilt_deg(tilt_deg: f64) -> Result<Option<Self>, String> {
+        if !(tilt_deg.is_finite() && tilt_deg >= 0.0) {
+            return Err(format!(
+                "the tilt must be 0 (not held level) or more degrees, not {tilt_deg}"
+            ));
+        }
+        Ok((tilt_deg > 0.0).then(|| LevelPrior {
+            tilt_sigma_rad: tilt_deg.to_radians(),
+            ..LevelPrior::default()
+        }))
+    }
+
+    /// The tilt of `level` in degrees, as [`Self::from_tilt_deg`] takes it (0: not held level).
+    pub fn tilt_deg(level: Option<Self>) -> f64 {
+        level.map_or(0.0, |level| level.tilt_sigma_rad.to_degrees())
+    }
+
     /// The standard deviation of one frame's tilt measurement, rad, `dt_s` after the frame
     /// before: over the correlation time, the frames' information adds up to one
     /// measurement of [`Self::tilt_sigma_rad`] (never narrower than that one).
@@ -74,6 +96,16 @@ mod tests {
         let frame = level_frame(tilted);
         assert!(frame.angle_to(&heading) < 1e-12);
         assert!(((frame * Vector3::y()) - Vector3::y()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_tilt_in_degrees_round_trips_and_zero_is_not_held_level() {
+        let level = LevelPrior::from_tilt_deg(2.5).unwrap();
+        assert!((LevelPrior::tilt_deg(level) - 2.5).abs() < 1e-12);
+        assert_eq!(LevelPrior::from_tilt_deg(0.0), Ok(None));
+        assert_eq!(LevelPrior::tilt_deg(None), 0.0);
+        assert!(LevelPrior::from_tilt_deg(-1.0).is_err());
+        assert!(LevelPrior::from_tilt_deg(f64::NAN).is_err());
     }
 
     #[test]
