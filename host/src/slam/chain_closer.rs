@@ -5,7 +5,9 @@
 //! once more, over a wide window, in a chain of the earlier scans around the one nearest to
 //! it, drawn at the poses the graph holds now ([`super::ChainClosureOptions`]). A closure
 //! enters the graph once a second one agrees ([`ClosureConfirmation`]); while one waits,
-//! every scan is searched.
+//! every scan is searched. A chain drawn for one search serves the next ones while the
+//! nearest scan stays near its centre and the graph holds its scans where they were
+//! ([`ChainClosureOptions::reuse_within_m`](super::ChainClosureOptions::reuse_within_m)).
 
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
 use super::loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
@@ -28,8 +30,6 @@ pub(super) struct ChainContext<'a> {
     pub poses_in_local: &'a [Pose2],
     /// Every scan added (trusted beams).
     pub scans: &'a [Scan],
-    /// Optimisations run so far: only an optimisation moves earlier scans.
-    pub optimizations: usize,
 }
 
 /// Searches chains of earlier scans. See the [module documentation](self).
@@ -51,8 +51,12 @@ pub(super) struct ChainCloser {
 /// of scans into a grid is the dearest part of drawing a chain.
 #[derive(Debug)]
 struct DrawnChain {
-    /// `(centre, first, last)` node and the optimisations run when it was drawn.
-    key: ([usize; 3], usize),
+    /// The node the chain is centred on, in whose frame it is drawn.
+    centre: usize,
+    /// The first node of the chain.
+    first: usize,
+    /// The poses of the chain's nodes, `first` on, in the map when it was drawn.
+    poses_in_map: Vec<Pose2>,
     /// The chain's end points; its grid too where it cannot stay undrawn (the submap is then
     /// finished).
     submap: SlamSubmap,
@@ -62,13 +66,25 @@ struct DrawnChain {
 }
 
 impl DrawnChain {
-    /// Readies the chain's occupancy for the acceptance test, once: `scans` at `poses_in_map`,
-    /// the scans and poses the chain was made of. A [`LazyGrid`] where one gives the drawn
-    /// grid's values; otherwise the grid is drawn.
-    fn ready_occupancy(&mut self, options: SubmapOptions, scans: &[Scan], poses_in_map: &[Pose2]) {
+    /// Whether the graph still holds every node of the chain where it was drawn.
+    fn is_current(&self, nodes: &[Node]) -> bool {
+        let last = self.first + self.poses_in_map.len();
+        nodes.get(self.first..last).is_some_and(|nodes| {
+            nodes
+                .iter()
+                .zip(&self.poses_in_map)
+                .all(|(node, &pose)| node.pose_in_map == pose)
+        })
+    }
+
+    /// Readies the chain's occupancy for the acceptance test, once, from `scans`, the scans of
+    /// its nodes. A [`LazyGrid`] where one gives the drawn grid's values; otherwise the grid
+    /// is drawn.
+    fn ready_occupancy(&mut self, options: SubmapOptions, scans: &[Scan]) {
         if self.occupancy.is_some() || self.submap.is_finished() {
             return;
         }
+        let poses_in_map = &self.poses_in_map;
         let scans_at_poses = || scans.iter().zip(poses_in_map.iter().copied());
         self.occupancy = LazyGrid::new(options, self.submap.pose_in_local(), scans_at_poses());
         if self.occupancy.is_some() {
@@ -147,32 +163,41 @@ impl ChainCloser {
     ) -> Option<FoundClosure> {
         let chain = &self.options.chain_closure;
         let last_chained = node.checked_sub(chain.search.min_scans_apart)?;
-        let centre = context
+        let nearest = context
             .nearest_earlier
             .filter(|&n| n <= last_chained && n < context.scans.len())?;
-        let first = centre.saturating_sub(chain.half_length_scans);
-        let last = (centre + chain.half_length_scans)
-            .min(last_chained)
-            .min(context.scans.len() - 1);
-        let poses: Vec<Pose2> = context
-            .nodes
-            .get(first..=last)?
-            .iter()
-            .map(|n| n.pose_in_map)
-            .collect();
-        let frame = poses[centre - first];
-        // Only an optimisation moves earlier scans: until then, the same chain draws the same.
-        let key = ([centre, first, last], context.optimizations);
-        if self
-            .last_chain
-            .as_ref()
-            .is_none_or(|drawn| drawn.key != key)
-        {
+        // The chain drawn last serves while it covers the nearest scan and the graph holds its
+        // scans where they were: drawn again, it would come out the same.
+        let serves = self.last_chain.as_ref().is_some_and(|drawn| {
+            let centre_in_map = drawn.poses_in_map[drawn.centre - drawn.first];
+            context.nodes.get(nearest).is_some_and(|nearest| {
+                let offset = centre_in_map.inverse() * nearest.pose_in_map;
+                offset.x_m.hypot(offset.y_m) <= chain.reuse_within_m
+            }) && drawn.is_current(context.nodes)
+        });
+        if !serves {
+            let centre = nearest;
+            let first = centre.saturating_sub(chain.half_length_scans);
+            let last = (centre + chain.half_length_scans)
+                .min(last_chained)
+                .min(context.scans.len() - 1);
+            let poses_in_map: Vec<Pose2> = context
+                .nodes
+                .get(first..=last)?
+                .iter()
+                .map(|n| n.pose_in_map)
+                .collect();
             // The occupancy waits until a match needs it (`DrawnChain::ready_occupancy`).
-            let mut submap =
-                SlamSubmap::new(frame, centre, self.options.submap, self.options.point_map);
-            for (chained, (scan, &pose)) in
-                context.scans[first..=last].iter().zip(&poses).enumerate()
+            let mut submap = SlamSubmap::new(
+                poses_in_map[centre - first],
+                centre,
+                self.options.submap,
+                self.options.point_map,
+            );
+            for (chained, (scan, &pose)) in context.scans[first..=last]
+                .iter()
+                .zip(&poses_in_map)
+                .enumerate()
             {
                 submap.insert_points(first + chained, scan, pose);
             }
@@ -180,7 +205,9 @@ impl ChainCloser {
                 .closer
                 .prepare(&submap.reference_scan().unwrap_or_default());
             self.last_chain = Some(DrawnChain {
-                key,
+                centre,
+                first,
+                poses_in_map,
                 submap,
                 reference,
                 occupancy: None,
@@ -188,14 +215,16 @@ impl ChainCloser {
         }
         let drawn = self.last_chain.as_mut()?;
         *searches += 1;
+        let frame = drawn.poses_in_map[drawn.centre - drawn.first];
         let guess = frame.inverse() * pose_in_map;
         let candidate = self
             .closer
             .align(&drawn.submap, &drawn.reference, scan, guess)?;
-        drawn.ready_occupancy(self.options.submap, &context.scans[first..=last], &poses);
+        let chained = drawn.first..drawn.first + drawn.poses_in_map.len();
+        drawn.ready_occupancy(self.options.submap, &context.scans[chained]);
         let closure = drawn.accept(&self.closer, &candidate)?;
         Some(FoundClosure {
-            submap_first_node: centre,
+            submap_first_node: drawn.centre,
             node,
             pose_in_submap: closure.pose_in_submap,
             information_in_robot: Some(closure.information_in_robot),

@@ -686,7 +686,6 @@ impl GraphSlam {
                 nearest_earlier,
                 poses_in_local: &self.poses_in_local,
                 scans: &self.scans,
-                optimizations: self.stats.optimizations,
             },
             &mut self.stats.chain_closure_searches,
         );
@@ -1124,7 +1123,6 @@ mod tests {
             nearest_earlier: slam.nearest_earlier_node(node, believed),
             poses_in_local: &slam.poses_in_local,
             scans: &slam.scans,
-            optimizations: slam.stats.optimizations,
         };
         let mut searches = 0;
         let found = slam

@@ -313,6 +313,13 @@ pub struct ChainClosureOptions {
     pub enabled: bool,
     /// Scans taken on each side of the nearest earlier scan.
     pub half_length_scans: usize,
+    /// A chain drawn for an earlier search serves again while the nearest earlier scan lies
+    /// within this distance of its centre, m (and the graph holds its scans where they were
+    /// drawn): a robot driving where it drove before meets the same place search after
+    /// search, and a chain of [`Self::half_length_scans`] either side reaches metres beyond
+    /// such a shift. Drawing the chain and readying it for the matcher is much of what a
+    /// search costs. 0: every search draws the chain around its own nearest scan.
+    pub reuse_within_m: f64,
     /// The search and its acceptance. Its `max_distance_m` bounds the distance to the
     /// nearest earlier scan, and its `min_scans_apart` how recent that scan may be; its
     /// `enabled`, `every_n_scans` and `max_searches_per_scan` are not used (chains are searched on the scans loop
@@ -326,6 +333,7 @@ impl Default for ChainClosureOptions {
         ChainClosureOptions {
             enabled: true,
             half_length_scans,
+            reuse_within_m: 0.5,
             search: LoopClosureOptions {
                 // A window this wide at the submaps' 10 cm and 1° costs several times more;
                 // ICP's first stage reaches farther than the coarser steps leave.
