@@ -1145,6 +1145,40 @@ mod tests {
     }
 
     #[test]
+    fn a_drawn_chain_serves_the_next_search_until_the_graph_moves_its_scans() {
+        let (slam, truth, last) = ring_but_the_last_scan();
+        let node = truth.len() - 1;
+        let believed = truth[0].inverse() * truth[node];
+        let nearest = slam
+            .nearest_earlier_node(node, believed)
+            .expect("a node near the start");
+        let mut options = slam.options.clone();
+        options.chain_closure.reuse_within_m = 10.0;
+        let mut chains = ChainCloser::new(&options).unwrap();
+        let scan = slam.options.trusted_beams(&last);
+        let mut nodes = slam.graph.nodes().to_vec();
+        let mut search_from = |nearest_earlier: usize, nodes: &[crate::pose_graph::Node]| {
+            let context = ChainContext {
+                nodes,
+                nearest_earlier: Some(nearest_earlier),
+                poses_in_local: &slam.poses_in_local,
+                scans: &slam.scans,
+            };
+            chains
+                .search(node, &scan, believed, &context, &mut 0)
+                .expect("found in the chain")
+                .submap_first_node
+        };
+        assert_eq!(search_from(nearest, &nodes), nearest);
+        // The next node, within reach of the chain drawn: found in that chain, in the frame
+        // of its centre.
+        assert_eq!(search_from(nearest + 1, &nodes), nearest);
+        // One of its scans moved by a solve: drawn again around the nearest node.
+        nodes[nearest].pose_in_map = nodes[nearest].pose_in_map * Pose2::new(0.01, 0.0, 0.0);
+        assert_eq!(search_from(nearest + 1, &nodes), nearest + 1);
+    }
+
+    #[test]
     fn a_scan_far_beyond_the_usual_window_is_found_around_its_guess() {
         let (slam, truth, last) = ring_but_the_last_scan();
         let earlier_len = truth.len() - 1;
