@@ -46,6 +46,24 @@ impl Adjacency {
         self.of_node.get(node).map_or(&[], Vec::as_slice)
     }
 
+    /// The free nodes, in order.
+    pub(super) fn free_nodes(&self) -> impl Iterator<Item = usize> + '_ {
+        self.free.iter().copied()
+    }
+
+    /// The free nodes and the edges with a free end, each in order: what optimisation can
+    /// change, gathered from the free nodes' edges.
+    pub(super) fn free_part(&self) -> (Vec<usize>, Vec<usize>) {
+        let mut edges: Vec<usize> = self
+            .free
+            .iter()
+            .flat_map(|&free| self.edges_of(free).iter().map(|&(_, index)| index))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        (self.free_nodes().collect(), edges)
+    }
+
     /// `(fixed node, free neighbour, edge index)` of every edge leaving the fixed nodes, in
     /// edge order: what a walk leaves the fixed nodes through. Gathered from the free nodes'
     /// edges, so it costs what the free part holds. An edge between two fixed nodes is left

@@ -8,7 +8,10 @@
 //! edges to a fixed node. The layout of the normal equations and its symbolic factorisation are
 //! kept between calls to [`PoseGraph::optimize`] until nodes, edges or the fixed set change.
 
+use std::collections::HashSet;
 use std::ops::Index;
+
+use foldhash::fast::FixedState;
 
 use super::adjacency::Adjacency;
 use super::edge::{Edge, EdgeId, pose_is_finite};
@@ -184,7 +187,8 @@ impl PoseGraph {
             Some(system) => system,
             None => {
                 self.check_anchored()?;
-                NormalEquations::new(&self.nodes, &self.edges)?
+                let (free_nodes, active_edges) = self.adjacency.free_part();
+                NormalEquations::for_free_part(&self.nodes, &self.edges, free_nodes, active_edges)?
             }
         };
         let system = self.system.insert(system);
@@ -196,23 +200,28 @@ impl PoseGraph {
         &self.adjacency
     }
 
-    /// Checks that every free node reaches a fixed node through edges.
+    /// Checks that every free node reaches a fixed node through edges, in a walk over the free
+    /// part.
     fn check_anchored(&self) -> Result<(), PoseGraphError> {
-        let mut reached: Vec<bool> = self.nodes.iter().map(|node| node.fixed).collect();
+        let mut reached: HashSet<usize, FixedState> = HashSet::default();
         let mut frontier = Vec::new();
         for (_, free, _) in self.adjacency.edges_leaving_fixed(&self.nodes) {
-            if !std::mem::replace(&mut reached[free], true) {
+            if reached.insert(free) {
                 frontier.push(free);
             }
         }
         while let Some(node) = frontier.pop() {
             for &(next, _) in self.adjacency.edges_of(node) {
-                if !std::mem::replace(&mut reached[next], true) {
+                if !self.nodes[next].fixed && reached.insert(next) {
                     frontier.push(next);
                 }
             }
         }
-        match reached.iter().position(|&reached| !reached) {
+        match self
+            .adjacency
+            .free_nodes()
+            .find(|node| !reached.contains(node))
+        {
             Some(node) => Err(PoseGraphError::Unanchored(NodeId(node))),
             None => Ok(()),
         }

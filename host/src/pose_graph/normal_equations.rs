@@ -53,10 +53,13 @@ struct EdgeSlots {
 /// The layout, values and factorisation of the normal equations of one graph topology (same
 /// nodes, same edges, same fixed set).
 pub(crate) struct NormalEquations {
-    /// For each edge, where it adds into `H` and `b`.
+    /// The edges with at least one free end, in edge order: the only ones the free nodes'
+    /// equations and cost depend on.
+    active_edges: Vec<usize>,
+    /// For each of those, where it adds into `H` and `b`.
     edge_slots: Vec<EdgeSlots>,
-    /// For each node, the index of its first variable; `None` for fixed nodes.
-    variable_of_node: Vec<Option<usize>>,
+    /// The free nodes, in order; free node `k` owns variables `3k..3k + 3`.
+    free_nodes: Vec<usize>,
     /// Column pointers of the lower triangle of `H`; the first entry of every column is its
     /// diagonal.
     column_pointers: Vec<usize>,
@@ -96,23 +99,41 @@ impl NormalEquations {
     ///
     /// [`PoseGraphError::MissingNode`] if an edge names a node outside `nodes`;
     /// [`PoseGraphError::SolverSetup`] if the solver runs out of memory or index range.
+    #[cfg(test)]
     pub(crate) fn new(nodes: &[Node], edges: &[Edge]) -> Result<Self, PoseGraphError> {
-        let mut variable_of_node = Vec::with_capacity(nodes.len());
-        let mut block_count = 0;
-        for node in nodes {
-            variable_of_node.push((!node.fixed).then(|| 3 * block_count));
-            block_count += usize::from(!node.fixed);
-        }
+        let is_free = |node: NodeId| nodes.get(node.0).is_some_and(|node| !node.fixed);
+        let free_nodes = (0..nodes.len()).filter(|&n| !nodes[n].fixed).collect();
+        let active_edges = (0..edges.len())
+            .filter(|&e| is_free(edges[e].from) || is_free(edges[e].to))
+            .collect();
+        Self::for_free_part(nodes, edges, free_nodes, active_edges)
+    }
+
+    /// [`Self::new`] given the graph's free nodes and the edges with a free end, each in
+    /// order: the layout, and every pass of the solve, then cost what the free part holds,
+    /// however much of the graph is fixed.
+    ///
+    /// # Errors
+    ///
+    /// As [`Self::new`].
+    pub(crate) fn for_free_part(
+        nodes: &[Node],
+        edges: &[Edge],
+        free_nodes: Vec<usize>,
+        active_edges: Vec<usize>,
+    ) -> Result<Self, PoseGraphError> {
+        let block_count = free_nodes.len();
         let block_of = |node: NodeId| {
-            variable_of_node
-                .get(node.0)
-                .map(|variable| variable.map(|variable| variable / 3))
-                .ok_or(PoseGraphError::MissingNode(node))
+            if node.0 >= nodes.len() {
+                return Err(PoseGraphError::MissingNode(node));
+            }
+            Ok(free_nodes.binary_search(&node.0).ok())
         };
+        let active: Vec<&Edge> = active_edges.iter().map(|&e| &edges[e]).collect();
 
         // Block rows strictly below the diagonal in every block column, sorted.
         let mut lower_rows = vec![Vec::new(); block_count];
-        for edge in edges {
+        for edge in &active {
             if let (Some(a), Some(b)) = (block_of(edge.from)?, block_of(edge.to)?) {
                 lower_rows[a.min(b)].push(a.max(b));
             }
@@ -142,8 +163,8 @@ impl NormalEquations {
             let index = lower_rows[column].partition_point(|&r| r < row);
             [0, 1, 2].map(|k| column_pointers[3 * column + k] + (3 - k) + 3 * index)
         };
-        let mut edge_slots = Vec::with_capacity(edges.len());
-        for edge in edges {
+        let mut edge_slots = Vec::with_capacity(active.len());
+        for edge in &active {
             let from = block_of(edge.from)?;
             let to = block_of(edge.to)?;
             let off_diagonal = match (from, to) {
@@ -181,8 +202,9 @@ impl NormalEquations {
         );
         let workspace = MemBuffer::try_new(scratch).map_err(|_| PoseGraphError::SolverSetup)?;
         Ok(NormalEquations {
+            active_edges,
             edge_slots,
-            variable_of_node,
+            free_nodes,
             column_pointers,
             row_indices,
             hessian: vec![0.0; value_count],
@@ -202,17 +224,14 @@ impl NormalEquations {
 
     /// Linearises every edge with a free end at the poses of `nodes`, fills `H` and `b` with
     /// the robustly reweighted contributions `w Jᵀ Ω J` and `w Jᵀ Ω e`, and returns their total
-    /// robust cost ([`free_cost`](super::optimizer::free_cost): an edge between two fixed nodes
+    /// robust cost ([`Self::free_cost`]: an edge between two fixed nodes
     /// adds a constant). `nodes` and `edges` must be those the layout was built for.
     pub(crate) fn linearize(&mut self, nodes: &[Node], edges: &[Edge]) -> f64 {
-        debug_assert_eq!(edges.len(), self.edge_slots.len());
         self.hessian.fill(0.0);
         self.gradient.fill(0.0);
         let mut cost = 0.0;
-        for (edge, slots) in edges.iter().zip(&self.edge_slots) {
-            if slots.from_variable.is_none() && slots.to_variable.is_none() {
-                continue;
-            }
+        for (&index, slots) in self.active_edges.iter().zip(&self.edge_slots) {
+            let edge = &edges[index];
             let from_in_map = nodes[edge.from.0].pose_in_map;
             let to_in_map = nodes[edge.to.0].pose_in_map;
             let linearization = edge.linearize(from_in_map, to_in_map);
@@ -322,21 +341,42 @@ impl NormalEquations {
     /// Writes into `candidate` the poses of `nodes` moved by the last step; fixed nodes are
     /// copied unchanged.
     pub(crate) fn apply_step(&self, nodes: &[Node], candidate: &mut [Node]) {
-        for ((node, moved), variable) in nodes
-            .iter()
-            .zip(candidate.iter_mut())
-            .zip(&self.variable_of_node)
-        {
-            *moved = *node;
-            if let Some(variable) = *variable {
-                let step = &self.step[variable..variable + 3];
-                moved.pose_in_map = Pose2::new(
-                    node.pose_in_map.x_m + step[0],
-                    node.pose_in_map.y_m + step[1],
-                    node.pose_in_map.theta_rad + step[2],
-                );
-            }
+        for (block, &node) in self.free_nodes.iter().enumerate() {
+            let step = &self.step[3 * block..3 * block + 3];
+            let pose = nodes[node].pose_in_map;
+            candidate[node] = Node {
+                pose_in_map: Pose2::new(
+                    pose.x_m + step[0],
+                    pose.y_m + step[1],
+                    pose.theta_rad + step[2],
+                ),
+                ..nodes[node]
+            };
         }
+    }
+
+    /// The total robust cost of the edges with a free end at the poses of `nodes`: what
+    /// optimisation can change. An edge between two fixed nodes adds a constant, and leaving it
+    /// out keeps the stopping test relative to what the free nodes can still gain however much
+    /// of the graph is fixed.
+    pub(crate) fn free_cost(&self, nodes: &[Node], edges: &[Edge]) -> f64 {
+        self.active_edges
+            .iter()
+            .map(|&index| {
+                let edge = &edges[index];
+                let chi2 = edge.chi2(nodes[edge.from.0].pose_in_map, nodes[edge.to.0].pose_in_map);
+                robust_cost(edge.kernel, chi2)
+            })
+            .sum()
+    }
+
+    /// The first variable of `node`, `None` for a fixed node.
+    #[cfg(test)]
+    fn variable_of(&self, node: NodeId) -> Option<usize> {
+        self.free_nodes
+            .binary_search(&node.0)
+            .ok()
+            .map(|block| 3 * block)
     }
 }
 
@@ -421,7 +461,7 @@ mod tests {
                 (edge.to, linearization.jacobian_to),
             ];
             for (node, block) in ends {
-                if let Some(variable) = system.variable_of_node[node.0] {
+                if let Some(variable) = system.variable_of(node) {
                     jacobian.view_mut((0, variable), (3, 3)).copy_from(&block);
                 }
             }

@@ -92,21 +92,6 @@ pub(crate) fn total_cost(nodes: &[Node], edges: &[Edge]) -> f64 {
         .sum()
 }
 
-/// The total robust cost of the edges of `edges` with at least one free end, at the poses of
-/// `nodes`: what optimisation can change. An edge between two fixed nodes adds a constant,
-/// and leaving it out keeps the stopping test relative to what the free nodes can still gain
-/// however much of the graph is fixed.
-pub(crate) fn free_cost(nodes: &[Node], edges: &[Edge]) -> f64 {
-    edges
-        .iter()
-        .filter(|edge| !(nodes[edge.from.0].fixed && nodes[edge.to.0].fixed))
-        .map(|edge| {
-            let chi2 = edge.chi2(nodes[edge.from.0].pose_in_map, nodes[edge.to.0].pose_in_map);
-            robust_cost(edge.kernel, chi2)
-        })
-        .sum()
-}
-
 /// Runs Levenberg–Marquardt on the poses of `nodes`, with `system` laid out for `nodes` and
 /// `edges`; on return `nodes` hold the best poses found.
 ///
@@ -150,7 +135,7 @@ pub(crate) fn levenberg_marquardt(
             }
         };
         system.apply_step(nodes, &mut candidate);
-        let new_cost = free_cost(&candidate, edges);
+        let new_cost = system.free_cost(&candidate, edges);
         let change_is_small = (cost - new_cost).abs() <= options.relative_cost_tolerance * cost;
         if new_cost < cost {
             // Gain ratio: actual over predicted reduction; near 1 the model is trustworthy.
