@@ -39,12 +39,15 @@ pub struct CameraArgs {
 /// # Errors
 /// A tilt that is negative or not a number.
 pub fn level_prior(tilt_deg: Option<f64>) -> Result<Option<LevelPrior>, String> {
-    match tilt_deg {
-        None => Ok(Some(LevelPrior::default())),
-        Some(tilt_deg) => {
-            LevelPrior::from_tilt_deg(tilt_deg).map_err(|e| format!("--camera-tilt-deg: {e}"))
-        }
-    }
+    tilt_deg.map_or(Ok(Some(LevelPrior::default())), level_prior_of)
+}
+
+/// The camera method's level prior for `--camera-tilt-deg DEG` (0: not held level).
+///
+/// # Errors
+/// A tilt that is negative or not a number.
+pub fn level_prior_of(tilt_deg: f64) -> Result<Option<LevelPrior>, String> {
+    LevelPrior::from_tilt_deg(tilt_deg).map_err(|e| format!("--camera-tilt-deg: {e}"))
 }
 
 impl CameraArgs {

@@ -47,11 +47,10 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
         first_frames: args.first_frames.map(|n| n as usize),
         target: args.target,
         slam: host::camera::MonoSlamOptions {
+            // A recorded sequence is not held level unless asked.
             level: args
                 .camera_tilt_deg
-                .map(|tilt_deg| super::camera_args::level_prior(Some(tilt_deg)))
-                .transpose()?
-                .flatten(),
+                .map_or(Ok(None), super::camera_args::level_prior_of)?,
             ..host::camera::MonoSlamOptions::default()
         },
         progress: true,

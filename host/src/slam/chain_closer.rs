@@ -66,10 +66,19 @@ struct DrawnChain {
 }
 
 impl DrawnChain {
+    /// The chain's nodes.
+    fn nodes(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.poses_in_map.len()
+    }
+
+    /// The pose of the chain's centre, its frame, in the map when it was drawn.
+    fn centre_in_map(&self) -> Pose2 {
+        self.poses_in_map[self.centre - self.first]
+    }
+
     /// Whether the graph still holds every node of the chain where it was drawn.
     fn is_current(&self, nodes: &[Node]) -> bool {
-        let last = self.first + self.poses_in_map.len();
-        nodes.get(self.first..last).is_some_and(|nodes| {
+        nodes.get(self.nodes()).is_some_and(|nodes| {
             nodes
                 .iter()
                 .zip(&self.poses_in_map)
@@ -169,9 +178,8 @@ impl ChainCloser {
         // The chain drawn last serves while it covers the nearest scan and the graph holds its
         // scans where they were: drawn again, it would come out the same.
         let serves = self.last_chain.as_ref().is_some_and(|drawn| {
-            let centre_in_map = drawn.poses_in_map[drawn.centre - drawn.first];
             context.nodes.get(nearest).is_some_and(|nearest| {
-                let offset = centre_in_map.inverse() * nearest.pose_in_map;
+                let offset = drawn.centre_in_map().inverse() * nearest.pose_in_map;
                 offset.x_m.hypot(offset.y_m) <= chain.reuse_within_m
             }) && drawn.is_current(context.nodes)
         });
@@ -215,12 +223,11 @@ impl ChainCloser {
         }
         let drawn = self.last_chain.as_mut()?;
         *searches += 1;
-        let frame = drawn.poses_in_map[drawn.centre - drawn.first];
-        let guess = frame.inverse() * pose_in_map;
+        let guess = drawn.centre_in_map().inverse() * pose_in_map;
         let candidate = self
             .closer
             .align(&drawn.submap, &drawn.reference, scan, guess)?;
-        let chained = drawn.first..drawn.first + drawn.poses_in_map.len();
+        let chained = drawn.nodes();
         drawn.ready_occupancy(self.options.submap, &context.scans[chained]);
         let closure = drawn.accept(&self.closer, &candidate)?;
         Some(FoundClosure {
