@@ -85,6 +85,43 @@ impl ClosureConfirmation {
         self.rejected + self.recent.iter().filter(|(_, added)| !added).count()
     }
 
+    /// Where the scan of `node` should lie if the closures still waiting are right: for each
+    /// submap (by its frame's node) a closure waits in, the latest such closure carried to
+    /// `node` through local tracking's `poses_in_local`, as
+    /// `(submap_first_node, pose_in_submap)`. A search there is the test of that closure: a
+    /// scan found where it predicts confirms it, and a look-alike rarely predicts the next
+    /// scans as well.
+    /// Only the waiting closures `followed` takes are carried.
+    pub fn predictions(
+        &self,
+        node: usize,
+        poses_in_local: &[Pose2],
+        followed: impl Fn(&FoundClosure) -> bool,
+    ) -> Vec<(usize, Pose2)> {
+        let window = self.options.window_scans;
+        let mut predictions: Vec<(usize, Pose2)> = Vec::new();
+        for (waiting, _) in
+            self.recent.iter().rev().filter(|(c, added)| {
+                !*added && c.node < node && c.node + window >= node && followed(c)
+            })
+        {
+            if predictions
+                .iter()
+                .any(|&(frame, _)| frame == waiting.submap_first_node)
+            {
+                continue;
+            }
+            let (Some(then), Some(now)) =
+                (poses_in_local.get(waiting.node), poses_in_local.get(node))
+            else {
+                continue;
+            };
+            let tracked = then.inverse() * *now;
+            predictions.push((waiting.submap_first_node, waiting.pose_in_submap * tracked));
+        }
+        predictions
+    }
+
     /// Offers `found`; `poses_in_local` are local tracking's poses of every node so far.
     /// Returns the closures to add to the graph now: none while `found` is alone, else the
     /// earlier closures it agrees with that are not in the graph yet, and `found` itself.
@@ -173,6 +210,41 @@ mod tests {
         };
         assert_eq!(confirmation.offer(second, &poses), vec![first, second]);
         assert_eq!(confirmation.rejected_at_end(), 0);
+    }
+
+    #[test]
+    fn a_waiting_closure_predicts_the_next_scans_until_confirmed_or_out_of_its_window() {
+        let poses = straight_line(80);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions::default());
+        let first = closure_at_node_40();
+        assert!(confirmation.offer(first, &poses).is_empty());
+        let everything = |_: &FoundClosure| true;
+        assert!(confirmation.predictions(40, &poses, everything).is_empty());
+        // Three scans on, three metres on along the closure's heading in its submap.
+        let predicted = confirmation.predictions(43, &poses, everything);
+        let (sin, cos) = 0.1f64.sin_cos();
+        let [(frame, pose)] = predicted[..] else {
+            panic!("one prediction, not {predicted:?}");
+        };
+        assert_eq!(frame, 0);
+        assert!((pose.x_m - (2.0 + 3.0 * cos)).abs() < 1e-9);
+        assert!((pose.y_m - (1.0 + 3.0 * sin)).abs() < 1e-9);
+        assert!((pose.theta_rad - 0.1).abs() < 1e-12);
+        // Only the closures followed are predicted, and none beyond the window.
+        assert!(
+            confirmation
+                .predictions(43, &poses, |c| c.node != 40)
+                .is_empty()
+        );
+        assert!(confirmation.predictions(61, &poses, everything).is_empty());
+        // Once confirmed, it predicts nothing.
+        let second = FoundClosure {
+            node: 43,
+            pose_in_submap: pose,
+            ..first
+        };
+        assert_eq!(confirmation.offer(second, &poses).len(), 2);
+        assert!(confirmation.predictions(44, &poses, everything).is_empty());
     }
 
     #[test]

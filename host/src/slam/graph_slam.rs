@@ -158,6 +158,9 @@ pub struct GraphSlam {
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// Searches a submap over the wide window of an uncertain pose.
     uncertain_closer: LoopCloser,
+    /// The closures `uncertain_closer` found, as `(node, submap_first_node)`: while one waits
+    /// for its confirmation, the scans after it are searched where it predicts them.
+    followed_closures: Vec<(usize, usize)>,
     /// The last node local tracking could not place, where it started afresh.
     last_lost_node: Option<usize>,
     /// For every finished submap, the node last searched in it by `closer`.
@@ -210,6 +213,7 @@ impl GraphSlam {
             scan_of_node: Vec::new(),
             finished: Vec::new(),
             uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
+            followed_closures: Vec::new(),
             last_search: Vec::new(),
             last_uncertain_search: Vec::new(),
             last_lost_node: None,
@@ -357,6 +361,7 @@ impl GraphSlam {
             if self.options.uncertain_closure.enabled && !taken {
                 self.close_loops_beyond_window(node, &scan, beyond_window);
             }
+            self.follow_waiting_closures(node, &scan);
         }
         // Less what the parts timed apart took meanwhile.
         let apart_s = (self.timings.closure_candidates_s - before.closure_candidates_s)
@@ -549,6 +554,7 @@ impl GraphSlam {
                 submap: index,
                 guess_in_submap,
                 reach_m,
+                covariance,
             };
             let fits_window =
                 reach_m <= options.search_window_m && reach_rad <= options.search_window_rad;
@@ -609,13 +615,58 @@ impl GraphSlam {
             self.stats.uncertain_closure_searches += 1;
             let submap = &self.finished[guess.submap].0;
             let reference_scan = submap.reference_scan_from(|n| self.node_scan(n, scan));
+            let window_m = self.options.uncertain_closure.search.search_window_m;
+            let gate_sigmas = self.options.loop_closure.gate_sigmas;
+            let guess_in_submap = guess
+                .covariance
+                .map_or(guess.guess_in_submap, |covariance| {
+                    most_likely_overlap(
+                        submap,
+                        guess.guess_in_submap,
+                        &covariance,
+                        window_m,
+                        gate_sigmas,
+                    )
+                });
             let closure = self.uncertain_closer.search_around_guess(
                 submap,
                 &reference_scan,
                 scan,
-                guess.guess_in_submap,
+                guess_in_submap,
             );
-            self.offer_closure(node, guess.submap, closure);
+            let frame_node = submap.first_node();
+            if self.offer_closure(node, guess.submap, closure) {
+                self.followed_closures.push((node, frame_node));
+            }
+        }
+    }
+
+    /// Searches the scan of `node` where each closure waiting for its confirmation predicts
+    /// it ([`ClosureConfirmation::predictions`]), with the usual window, and adds what that
+    /// confirms. Every scan is searched so while a closure waits, whatever it would tell.
+    fn follow_waiting_closures(&mut self, node: usize, scan: &Scan) {
+        let followed = &self.followed_closures;
+        let predictions = self
+            .confirmation
+            .predictions(node, &self.poses_in_local, |c| {
+                followed.contains(&(c.node, c.submap_first_node))
+            });
+        for (frame_node, guess_in_submap) in predictions {
+            let Some(index) = self
+                .finished
+                .iter()
+                .position(|(submap, _)| submap.first_node() == frame_node)
+            else {
+                continue;
+            };
+            if self.last_search[index] == node {
+                continue;
+            }
+            self.last_search[index] = node;
+            let submap = &self.finished[index].0;
+            self.stats.loop_closure_searches += 1;
+            let closure = self.closer.search_from(submap, scan, guess_in_submap);
+            self.offer_closure(node, index, closure);
         }
     }
 
@@ -884,6 +935,52 @@ struct SubmapGuess {
     ///
     /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
     reach_m: f64,
+    /// The covariance of that pose, in the scan's frame; `None` where not known.
+    covariance: Option<Matrix3<f64>>,
+}
+
+/// Where to centre a search of a scan estimated at `guess_in_submap` in `submap`, the pose
+/// uncertain with `covariance` (in the scan's frame): where the submap's scans were taken,
+/// the one most likely under that uncertainty, when it lies beyond a window of `window_m`
+/// around the guess and within `gate_sigmas` standard deviations of it; the guess otherwise.
+/// After a stretch tracking could not place, the estimate may lie tens of metres from the
+/// place it has come back to, farther than any window reaches, while the uncertainty it
+/// carries still covers the place: the search goes where the robot could be and the submap
+/// has seen, rather than where the robot was guessed to be.
+fn most_likely_overlap(
+    submap: &SlamSubmap,
+    guess_in_submap: Pose2,
+    covariance: &Matrix3<f64>,
+    window_m: f64,
+    gate_sigmas: f64,
+) -> Pose2 {
+    // The position's covariance in the submap frame: a perturbation in the scan's frame
+    // turned by the guess's heading.
+    let (sin, cos) = guess_in_submap.theta_rad.sin_cos();
+    let rotation = nalgebra::Matrix2::new(cos, -sin, sin, cos);
+    let position = covariance.fixed_view::<2, 2>(0, 0).into_owned();
+    let Some(information) = (rotation * position * rotation.transpose()).try_inverse() else {
+        return guess_in_submap;
+    };
+    let squared_sigmas = |pose: &Pose2| {
+        let offset = nalgebra::Vector2::new(
+            pose.x_m - guess_in_submap.x_m,
+            pose.y_m - guess_in_submap.y_m,
+        );
+        (offset.transpose() * information * offset)[0]
+    };
+    let Some((nearest, sigmas2)) = submap
+        .scan_poses_in_submap()
+        .map(|pose| (pose, squared_sigmas(&pose)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return guess_in_submap;
+    };
+    let distance_m = (nearest.x_m - guess_in_submap.x_m).hypot(nearest.y_m - guess_in_submap.y_m);
+    if distance_m <= window_m || sigmas2 > gate_sigmas * gate_sigmas {
+        return guess_in_submap;
+    }
+    Pose2::new(nearest.x_m, nearest.y_m, guess_in_submap.theta_rad)
 }
 
 /// How far `gate_sigmas` standard deviations of a relative pose with `covariance` (x, y,
@@ -1206,6 +1303,38 @@ mod tests {
         let (error_m, error_rad) = error_of(&found);
         assert!(error_m < 0.05, "{found:?}");
         assert!(error_rad < 1f64.to_radians(), "{found:?}");
+    }
+
+    #[test]
+    fn a_search_far_from_a_very_uncertain_guess_goes_where_the_submap_was_seen() {
+        let options = SlamOptions::default();
+        let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
+        let scan = cast_front_scan(&ring_walls(), Pose2::IDENTITY);
+        for x_m in [0.0, 5.0, 10.0, 15.0, 20.0] {
+            submap.insert(x_m as usize, &scan, Pose2::new(x_m, 0.0, 0.0));
+        }
+        let guess = Pose2::new(60.0, 3.0, 0.4);
+        let sigma = |sigma_m: f64| {
+            Matrix3::from_diagonal(&nalgebra::Vector3::new(
+                sigma_m * sigma_m,
+                sigma_m * sigma_m,
+                0.01,
+            ))
+        };
+        // 30 m uncertain: the nearest place the submap saw, 40 m away, is 1.3 σ off.
+        let moved = most_likely_overlap(&submap, guess, &sigma(30.0), 16.0, 3.0);
+        assert_eq!(moved, Pose2::new(20.0, 0.0, 0.4));
+        // 5 m uncertain: 8 σ off, not where the robot can be.
+        assert_eq!(
+            most_likely_overlap(&submap, guess, &sigma(5.0), 16.0, 3.0),
+            guess
+        );
+        // Within the window of the guess already: searched around the guess.
+        let near = Pose2::new(30.0, 3.0, 0.4);
+        assert_eq!(
+            most_likely_overlap(&submap, near, &sigma(30.0), 16.0, 3.0),
+            near
+        );
     }
 
     #[test]

@@ -156,6 +156,19 @@ impl LoopCloser {
         self.accept(submap, &candidate)
     }
 
+    /// [`Self::search`] without the raster search: `scan` aligned on the submap's points from
+    /// `start_in_submap` alone, and tested. For a pose already known to within the alignment's
+    /// reach (a closure's prediction carried through local tracking).
+    pub fn search_from(
+        &self,
+        submap: &SlamSubmap,
+        scan: &Scan,
+        start_in_submap: Pose2,
+    ) -> Option<LoopClosure> {
+        let candidate = self.align_from(submap, scan, start_in_submap)?;
+        self.accept(submap, &candidate)
+    }
+
     /// Aligns `scan` on the submap's points from `start_in_submap` (`submap_from_robot`);
     /// `None` when the alignment fails or leaves too few end points on the submap's surfaces
     /// for [`Self::accept`] to take it.

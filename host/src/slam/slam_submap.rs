@@ -344,6 +344,11 @@ impl SlamSubmap {
         self.pose_in_local
     }
 
+    /// Where each inserted scan was taken, in the submap frame (`submap_from_robot`).
+    pub fn scan_poses_in_submap(&self) -> impl Iterator<Item = Pose2> + '_ {
+        self.inserted.iter().map(|&(_, pose)| pose)
+    }
+
     /// The node whose pose is the submap frame.
     pub fn first_node(&self) -> usize {
         self.first_node
