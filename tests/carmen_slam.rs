@@ -188,7 +188,7 @@ fn orebro_closes_its_loop_after_scans_tracking_could_not_place() {
 /// before, and by scan 720, back at the start, the estimate lies 18 m from the place, beyond
 /// any search window. The uncertainty it carries covers the place: the search goes to where
 /// the start's submap was seen, and the scans after the match are searched where it predicts
-/// them, which confirms it.
+/// them: two found there confirm it.
 #[test]
 fn freiburg_campus_closes_its_first_loop_after_scans_tracking_could_not_place() {
     let Some((summary, out)) = replay(
@@ -205,7 +205,7 @@ fn freiburg_campus_closes_its_first_loop_after_scans_tracking_could_not_place() 
         .reference_revisits
         .map(|e| e.summary)
         .expect("revisit relations");
-    // Measured: 0.021 m over 173 revisits; 16.8 m with the search around the estimate alone.
+    // Measured: 0.020 m over 173 revisits; 16.8 m with the search around the estimate alone.
     assert_eq!(revisits.count, 173, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 0.3, "{revisits:?}");
     let _ = std::fs::remove_dir_all(&out);

@@ -86,20 +86,19 @@ impl ClosureConfirmation {
     }
 
     /// Where the scan of `node` should lie if the closures still waiting are right: for each
-    /// submap (by its frame's node) a closure waits in, the latest such closure carried to
-    /// `node` through local tracking's `poses_in_local`, as
-    /// `(submap_first_node, pose_in_submap)`. A search there is the test of that closure: a
-    /// scan found where it predicts confirms it, and a look-alike rarely predicts the next
-    /// scans as well.
-    /// Only the waiting closures `followed` takes are carried.
+    /// submap (by its frame's node) a closure waits in, the latest such closure and its pose
+    /// carried to `node` through local tracking's `poses_in_local`. A search there is the
+    /// test of that closure: a scan found where it predicts agrees with it, and a look-alike
+    /// rarely predicts the next scans as well. Only the waiting closures `followed` takes are
+    /// carried.
     pub fn predictions(
         &self,
         node: usize,
         poses_in_local: &[Pose2],
         followed: impl Fn(&FoundClosure) -> bool,
-    ) -> Vec<(usize, Pose2)> {
+    ) -> Vec<(FoundClosure, Pose2)> {
         let window = self.options.window_scans;
-        let mut predictions: Vec<(usize, Pose2)> = Vec::new();
+        let mut predictions: Vec<(FoundClosure, Pose2)> = Vec::new();
         for (waiting, _) in
             self.recent.iter().rev().filter(|(c, added)| {
                 !*added && c.node < node && c.node + window >= node && followed(c)
@@ -107,7 +106,7 @@ impl ClosureConfirmation {
         {
             if predictions
                 .iter()
-                .any(|&(frame, _)| frame == waiting.submap_first_node)
+                .any(|(c, _)| c.submap_first_node == waiting.submap_first_node)
             {
                 continue;
             }
@@ -117,7 +116,7 @@ impl ClosureConfirmation {
                 continue;
             };
             let tracked = then.inverse() * *now;
-            predictions.push((waiting.submap_first_node, waiting.pose_in_submap * tracked));
+            predictions.push((*waiting, waiting.pose_in_submap * tracked));
         }
         predictions
     }
@@ -223,10 +222,10 @@ mod tests {
         // Three scans on, three metres on along the closure's heading in its submap.
         let predicted = confirmation.predictions(43, &poses, everything);
         let (sin, cos) = 0.1f64.sin_cos();
-        let [(frame, pose)] = predicted[..] else {
+        let [(waiting, pose)] = predicted[..] else {
             panic!("one prediction, not {predicted:?}");
         };
-        assert_eq!(frame, 0);
+        assert_eq!(waiting, first);
         assert!((pose.x_m - (2.0 + 3.0 * cos)).abs() < 1e-9);
         assert!((pose.y_m - (1.0 + 3.0 * sin)).abs() < 1e-9);
         assert!((pose.theta_rad - 0.1).abs() < 1e-12);

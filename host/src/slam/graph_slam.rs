@@ -158,9 +158,9 @@ pub struct GraphSlam {
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// Searches a submap over the wide window of an uncertain pose.
     uncertain_closer: LoopCloser,
-    /// The closures `uncertain_closer` found, as `(node, submap_first_node)`: while one waits
-    /// for its confirmation, the scans after it are searched where it predicts them.
-    followed_closures: Vec<(usize, usize)>,
+    /// The closures `uncertain_closer` found: while one waits for its confirmation, the scans
+    /// after it are searched where it predicts them.
+    followed_closures: Vec<FollowedClosure>,
     /// The last node local tracking could not place, where it started afresh.
     last_lost_node: Option<usize>,
     /// For every finished submap, the node last searched in it by `closer`.
@@ -634,24 +634,39 @@ impl GraphSlam {
                 scan,
                 guess_in_submap,
             );
-            let frame_node = submap.first_node();
+            let found = closure.map(|closure| FoundClosure {
+                submap_first_node: submap.first_node(),
+                node,
+                pose_in_submap: closure.pose_in_submap,
+                information_in_robot: Some(closure.information_in_robot),
+            });
             if self.offer_closure(node, guess.submap, closure) {
-                self.followed_closures.push((node, frame_node));
+                self.followed_closures
+                    .extend(found.map(|closure| FollowedClosure {
+                        closure,
+                        found: Vec::new(),
+                    }));
             }
         }
     }
 
-    /// Searches the scan of `node` where each closure waiting for its confirmation predicts
-    /// it ([`ClosureConfirmation::predictions`]), with the usual window, and adds what that
-    /// confirms. Every scan is searched so while a closure waits, whatever it would tell.
+    /// Searches the scan of `node` where each closure the uncertain closer found and that
+    /// waits for its confirmation predicts it ([`ClosureConfirmation::predictions`]),
+    /// aligning from that prediction alone; once [`FOLLOWED_MATCHES`] scans were found where
+    /// it predicted them, they are offered to the confirmation, which adds them and the
+    /// closure. Every scan is searched so while such a closure waits.
     fn follow_waiting_closures(&mut self, node: usize, scan: &Scan) {
+        let window = self.options.loop_closure.confirmation.window_scans;
+        self.followed_closures
+            .retain(|followed| followed.closure.node + window >= node);
         let followed = &self.followed_closures;
         let predictions = self
             .confirmation
             .predictions(node, &self.poses_in_local, |c| {
-                followed.contains(&(c.node, c.submap_first_node))
+                followed.iter().any(|f| f.closure == *c)
             });
-        for (frame_node, guess_in_submap) in predictions {
+        for (waiting, guess_in_submap) in predictions {
+            let frame_node = waiting.submap_first_node;
             let Some(index) = self
                 .finished
                 .iter()
@@ -659,14 +674,34 @@ impl GraphSlam {
             else {
                 continue;
             };
-            if self.last_search[index] == node {
-                continue;
-            }
-            self.last_search[index] = node;
-            let submap = &self.finished[index].0;
             self.stats.loop_closure_searches += 1;
-            let closure = self.closer.search_from(submap, scan, guess_in_submap);
-            self.offer_closure(node, index, closure);
+            let Some(closure) =
+                self.closer
+                    .search_from(&self.finished[index].0, scan, guess_in_submap)
+            else {
+                continue;
+            };
+            let Some(followed) = self
+                .followed_closures
+                .iter_mut()
+                .find(|f| f.closure == waiting)
+            else {
+                continue;
+            };
+            followed.found.push(FoundClosure {
+                submap_first_node: frame_node,
+                node,
+                pose_in_submap: closure.pose_in_submap,
+                information_in_robot: Some(closure.information_in_robot),
+            });
+            if followed.found.len() >= FOLLOWED_MATCHES {
+                let found = std::mem::take(&mut followed.found);
+                for found in found {
+                    for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
+                        self.add_closure(confirmed);
+                    }
+                }
+            }
         }
     }
 
@@ -919,6 +954,20 @@ impl GraphSlam {
         }
         self.timings.optimization_s += seconds_since(started);
     }
+}
+
+/// Scans found where a followed closure predicts them before they are offered to the
+/// confirmation ([`GraphSlam::follow_waiting_closures`]): a closure from a search as wide as
+/// the uncertain closer's must predict two more scans, as a look-alike place that goes on
+/// looking alike for one scan more (two offices in a row) is not rare.
+const FOLLOWED_MATCHES: usize = 2;
+
+/// A closure of the uncertain closer waiting for its confirmation, and the scans found since
+/// where it predicted them.
+#[derive(Clone, Debug)]
+struct FollowedClosure {
+    closure: FoundClosure,
+    found: Vec<FoundClosure>,
 }
 
 /// A finished submap the scan may be found in, and where.
