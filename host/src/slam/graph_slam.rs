@@ -588,7 +588,7 @@ impl GraphSlam {
             let closure = self
                 .closer
                 .search(submap, reference, scan, guess.guess_in_submap);
-            taken |= self.offer_closure(node, guess.submap, closure);
+            taken |= self.offer_closure(node, guess.submap, closure).is_some();
         }
         (taken, beyond_window)
     }
@@ -634,18 +634,11 @@ impl GraphSlam {
                 scan,
                 guess_in_submap,
             );
-            let found = closure.map(|closure| FoundClosure {
-                submap_first_node: submap.first_node(),
-                node,
-                pose_in_submap: closure.pose_in_submap,
-                information_in_robot: Some(closure.information_in_robot),
-            });
-            if self.offer_closure(node, guess.submap, closure) {
-                self.followed_closures
-                    .extend(found.map(|closure| FollowedClosure {
-                        closure,
-                        found: Vec::new(),
-                    }));
+            if let Some(closure) = self.offer_closure(node, guess.submap, closure) {
+                self.followed_closures.push(FollowedClosure {
+                    closure,
+                    found: Vec::new(),
+                });
             }
         }
     }
@@ -688,12 +681,9 @@ impl GraphSlam {
             else {
                 continue;
             };
-            followed.found.push(FoundClosure {
-                submap_first_node: frame_node,
-                node,
-                pose_in_submap: closure.pose_in_submap,
-                information_in_robot: Some(closure.information_in_robot),
-            });
+            followed
+                .found
+                .push(found_closure(node, frame_node, &closure));
             if followed.found.len() >= FOLLOWED_MATCHES {
                 let found = std::mem::take(&mut followed.found);
                 for found in found {
@@ -706,26 +696,18 @@ impl GraphSlam {
     }
 
     /// Offers what the search of the scan of `node` in finished submap `index` found to the
-    /// confirmation, and adds what it confirms; whether the search found anything.
+    /// confirmation, and adds what it confirms; what it offered, if the search found anything.
     fn offer_closure(
         &mut self,
         node: usize,
         index: usize,
         closure: Option<super::loop_closer::LoopClosure>,
-    ) -> bool {
-        let Some(closure) = closure else {
-            return false;
-        };
-        let found = FoundClosure {
-            submap_first_node: self.finished[index].0.first_node(),
-            node,
-            pose_in_submap: closure.pose_in_submap,
-            information_in_robot: Some(closure.information_in_robot),
-        };
+    ) -> Option<FoundClosure> {
+        let found = found_closure(node, self.finished[index].0.first_node(), &closure?);
         for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
             self.add_closure(confirmed);
         }
-        true
+        Some(found)
     }
 
     /// Whether a closure on a place the scan's pose is held relative to with `covariance`
@@ -953,6 +935,20 @@ impl GraphSlam {
             self.map_from_local = pose_in_map * pose_in_local.inverse();
         }
         self.timings.optimization_s += seconds_since(started);
+    }
+}
+
+/// The scan of `node` found by a search in the submap whose frame is `submap_first_node`.
+fn found_closure(
+    node: usize,
+    submap_first_node: usize,
+    closure: &super::loop_closer::LoopClosure,
+) -> FoundClosure {
+    FoundClosure {
+        submap_first_node,
+        node,
+        pose_in_submap: closure.pose_in_submap,
+        information_in_robot: Some(closure.information_in_robot),
     }
 }
 
