@@ -83,6 +83,17 @@ pub struct CameraNeesReport {
     pub camera_median_nees: f64,
     /// Frames where at least one run's NEES was tested (a local map's first frame is not).
     pub frames_tested: usize,
+    /// The run-averaged NEES at each frame (`null` where no run was tested), to plot against
+    /// the bounds.
+    pub camera_nees_by_frame: Vec<Option<f64>>,
+    /// The same three for the filter told the true association and given the world's own
+    /// points with the pixel noise it assumes ([`crate::camera_ideal`]), on the same runs:
+    /// what the test yields for the filter itself, with a perfect front end.
+    pub ideal_fraction_within: f64,
+    pub ideal_fraction_above: f64,
+    pub ideal_median_nees: f64,
+    /// The ideal filter's run-averaged NEES at each frame.
+    pub ideal_nees_by_frame: Vec<Option<f64>>,
     /// Each run's mean camera-orientation error in the world (first camera) frame, degrees.
     pub camera_rotation_error_deg: Vec<f64>,
     /// Each run's local maps.
@@ -109,6 +120,7 @@ pub enum CameraNeesError {
 /// One run's NEES per frame (`None` where it is not tested) and its errors.
 struct RunResult {
     camera: Vec<Option<f64>>,
+    ideal: Vec<Option<f64>>,
     rotation_error_deg: f64,
     local_maps: usize,
     places_recognised: usize,
@@ -142,16 +154,22 @@ pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, 
     bar.finish_and_clear();
 
     let camera: Vec<&[Option<f64>]> = results.iter().map(|r| r.camera.as_slice()).collect();
-    let (camera_fraction_within, camera_fraction_above, camera_median_nees, frames_tested) =
-        fractions(&camera, frames);
+    let camera = fractions(&camera, frames);
+    let ideal: Vec<&[Option<f64>]> = results.iter().map(|r| r.ideal.as_slice()).collect();
+    let ideal = fractions(&ideal, frames);
     Ok(CameraNeesReport {
         runs: options.runs,
         frames_per_run: frames,
         bounds: chi_square_bounds(3, options.runs, CONFIDENCE).unwrap_or((0.0, f64::INFINITY)),
-        camera_fraction_within,
-        camera_fraction_above,
-        camera_median_nees,
-        frames_tested,
+        camera_fraction_within: camera.within,
+        camera_fraction_above: camera.above,
+        camera_median_nees: camera.median,
+        frames_tested: camera.tested,
+        camera_nees_by_frame: camera.by_frame,
+        ideal_fraction_within: ideal.within,
+        ideal_fraction_above: ideal.above,
+        ideal_median_nees: ideal.median,
+        ideal_nees_by_frame: ideal.by_frame,
         camera_rotation_error_deg: results.iter().map(|r| r.rotation_error_deg).collect(),
         camera_local_maps: results.iter().map(|r| r.local_maps).collect(),
         camera_places_recognised: results.iter().map(|r| r.places_recognised).collect(),
@@ -161,12 +179,13 @@ pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, 
 /// Of the frames where at least one run tested the NEES: the fraction whose run-averaged
 /// NEES lies within the bounds for the runs counted there, the fraction above them, the
 /// median of the run-averaged NEES, and how many frames were tested.
-fn fractions(runs: &[&[Option<f64>]], frames: usize) -> (f64, f64, f64, usize) {
+fn fractions(runs: &[&[Option<f64>]], frames: usize) -> Fractions {
     let mut tested = 0usize;
     let mut within = 0usize;
     let mut above = 0usize;
     let mut averages = Vec::with_capacity(frames);
-    for frame in 0..frames {
+    let mut by_frame = vec![None; frames];
+    for (frame, by_frame) in by_frame.iter_mut().enumerate() {
         let values: Vec<f64> = runs
             .iter()
             .filter_map(|r| r.get(frame).copied().flatten())
@@ -182,6 +201,7 @@ fn fractions(runs: &[&[Option<f64>]], frames: usize) -> (f64, f64, f64, usize) {
             within += 1;
         }
         averages.push(average);
+        *by_frame = Some(average);
     }
     averages.sort_by(f64::total_cmp);
     let median = averages
@@ -189,18 +209,36 @@ fn fractions(runs: &[&[Option<f64>]], frames: usize) -> (f64, f64, f64, usize) {
         .copied()
         .unwrap_or(f64::NAN);
     let share = |n: usize| n as f64 / tested.max(1) as f64;
-    (share(within), share(above), median, tested)
+    Fractions {
+        within: share(within),
+        above: share(above),
+        median,
+        tested,
+        by_frame,
+    }
+}
+
+/// What [`fractions`] finds: the shares of the tested frames within and above the bounds,
+/// the median run-averaged NEES, the frames tested, and the run-averaged NEES by frame.
+struct Fractions {
+    within: f64,
+    above: f64,
+    median: f64,
+    tested: usize,
+    by_frame: Vec<Option<f64>>,
 }
 
 /// `eᵀ P⁻¹ e` for the orientation error `δ` with `truth = exp(δ) · estimate` (about the
 /// world axes, as [`host::camera::MonoEkf::orientation_covariance`] gives `P`); `None`
 /// where `P` cannot be inverted (the pose exact, as where a local map starts).
-fn orientation_nees(
+pub(crate) fn orientation_nees(
     estimate: &UnitQuaternion<f64>,
     truth: &UnitQuaternion<f64>,
     covariance: &Matrix3<f64>,
 ) -> Option<f64> {
-    if covariance.trace() < 1e-14 {
+    // Where a local map starts its heading is exact (and, for a camera not held level, its
+    // whole orientation): a direction of variance at rounding's size tests nothing.
+    if covariance.symmetric_eigenvalues().min() < 1e-12 {
         return None;
     }
     let error = (truth * estimate.inverse()).scaled_axis();
@@ -250,8 +288,17 @@ fn run_one(
         rotation_error_rad += report.orientation.angle_to(&(first.inverse() * truth));
         bar.inc(1);
     }
+    let ideal = crate::camera_ideal::ideal_orientation_nees(
+        &scenario,
+        &view,
+        &options.slam,
+        frames,
+        options.rate_hz,
+        seed,
+    );
     RunResult {
         camera: camera_nees,
+        ideal: ideal.into_iter().map(|(nees, _)| nees).collect(),
         rotation_error_deg: (rotation_error_rad / frames as f64).to_degrees(),
         local_maps,
         places_recognised: slam.stats().places_recognised,
@@ -323,8 +370,9 @@ mod tests {
         // Two runs, three frames: consistent, far too sure, not tested.
         let a = [Some(3.0), Some(100.0), None];
         let b = [Some(3.0), Some(100.0), None];
-        let (within, above, median, tested) = fractions(&[&a, &b], 3);
-        assert_eq!((within, above, tested), (0.5, 0.5, 2));
-        assert_eq!(median, 100.0);
+        let f = fractions(&[&a, &b], 3);
+        assert_eq!((f.within, f.above, f.tested), (0.5, 0.5, 2));
+        assert_eq!(f.median, 100.0);
+        assert_eq!(f.by_frame, [Some(3.0), Some(100.0), None]);
     }
 }

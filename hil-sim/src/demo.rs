@@ -20,7 +20,7 @@ use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use host::camera::{CameraPipeline, LevelPrior, PinholeCamera};
+use host::camera::{CameraPipeline, ForwardMotionPrior, LevelPrior};
 use robot_host::camera_capture::{CaptureError, FrameSource, PixelFormat, RawFrame};
 
 use host::geoimage::{GeoImage, GeographicGeoref, write_geotiff_geographic_rgb8};
@@ -230,7 +230,7 @@ pub fn run(options: &DemoOptions, ready: impl FnOnce(&DemoReady)) -> io::Result<
     let camera_truth = Arc::new(Mutex::new(Vec::new()));
     let (camera_tx, camera) = match &options.camera {
         Some(camera) => {
-            set_camera(&mut config, &camera.rig.camera, camera.level);
+            set_camera(&mut config, camera);
             // Two frames in hand: the run waits rather than drop a frame the capture has
             // not yet taken.
             let (tx, rx) = mpsc::sync_channel(2);
@@ -452,13 +452,13 @@ fn behind_wall_clock_s(truth: &[(Instant, CameraRecord)]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Gives `config` the rendered camera, held `level` (`None`: not held level), and the camera
-/// method.
-fn set_camera(config: &mut DaemonConfig, camera: &PinholeCamera, level: Option<LevelPrior>) {
+/// Gives `config` the rendered camera of `camera`, held as it says, and the camera method.
+fn set_camera(config: &mut DaemonConfig, camera: &CameraRunOptions) {
     config.slam.method = SlamMethod::Camera;
     config.camera.device = Some("hil-sim camera".into());
-    config.camera.set_model(camera);
-    config.camera.tilt_sigma_deg = LevelPrior::tilt_deg(level);
+    config.camera.set_model(&camera.rig.camera);
+    config.camera.tilt_sigma_deg = LevelPrior::tilt_deg(camera.level);
+    config.camera.sideslip_sigma_deg = ForwardMotionPrior::sideslip_deg(camera.forward_motion);
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.

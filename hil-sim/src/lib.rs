@@ -4,6 +4,7 @@ pub mod bench_match;
 pub mod bench_slam;
 pub mod board;
 pub mod bringup;
+pub mod camera_ideal;
 pub mod camera_nees;
 pub mod camera_render;
 pub mod camera_replay;

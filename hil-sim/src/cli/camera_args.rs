@@ -1,7 +1,7 @@
 //! The flags that choose the camera method, shared by `run` and `demo`.
 
 use hil_sim::run::CameraRunOptions;
-use host::camera::LevelPrior;
+use host::camera::{ForwardMotionPrior, LevelPrior};
 
 /// What estimates the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -32,6 +32,12 @@ pub struct CameraArgs {
     /// 0: not held level, as for a hand-held camera (`--method camera`) [default: 3].
     #[arg(long)]
     camera_tilt_deg: Option<f64>,
+    /// How far the motion of the robot's camera, looking forward, leaves its optical axis as
+    /// the robot turns, standard deviation in degrees (3 for the rendered robot's camera):
+    /// the camera method holds the camera's velocity to it. Without it the camera may move in
+    /// any direction (`--method camera`).
+    #[arg(long)]
+    camera_sideslip_deg: Option<f64>,
 }
 
 /// The camera method's level prior for `--camera-tilt-deg` (`None`: the default).
@@ -50,6 +56,19 @@ pub fn level_prior_of(tilt_deg: f64) -> Result<Option<LevelPrior>, String> {
     LevelPrior::from_tilt_deg(tilt_deg).map_err(|e| format!("--camera-tilt-deg: {e}"))
 }
 
+/// The camera method's forward-motion prior for `--camera-sideslip-deg` (absent or 0: none).
+///
+/// # Errors
+/// A sideslip that is negative, not a number, or 90° or more.
+pub fn forward_motion_prior(
+    sideslip_deg: Option<f64>,
+) -> Result<Option<ForwardMotionPrior>, String> {
+    sideslip_deg.map_or(Ok(None), |deg| {
+        ForwardMotionPrior::from_sideslip_deg(deg)
+            .map_err(|e| format!("--camera-sideslip-deg: {e}"))
+    })
+}
+
 impl CameraArgs {
     /// The camera of the flags, `None` for the laser method.
     ///
@@ -57,21 +76,26 @@ impl CameraArgs {
     /// Camera flags without `--method camera`.
     pub fn options(&self) -> Result<Option<CameraRunOptions>, String> {
         if self.method == Method::Laser
-            && (self.movers > 0 || self.camera_rate.is_some() || self.camera_tilt_deg.is_some())
+            && (self.movers > 0
+                || self.camera_rate.is_some()
+                || self.camera_tilt_deg.is_some()
+                || self.camera_sideslip_deg.is_some())
         {
             return Err(
-                "--movers, --camera-rate and --camera-tilt-deg are the camera's: they \
-                        need --method camera"
+                "--movers, --camera-rate, --camera-tilt-deg and --camera-sideslip-deg are \
+                        the camera's: they need --method camera"
                     .into(),
             );
         }
         let level = level_prior(self.camera_tilt_deg)?;
+        let forward_motion = forward_motion_prior(self.camera_sideslip_deg)?;
         Ok((self.method == Method::Camera).then(|| CameraRunOptions {
             rate_hz: self
                 .camera_rate
                 .unwrap_or(CameraRunOptions::default().rate_hz),
             movers: self.movers,
             level,
+            forward_motion,
             ..CameraRunOptions::default()
         }))
     }

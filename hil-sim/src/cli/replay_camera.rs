@@ -37,6 +37,12 @@ pub struct ReplayCameraArgs {
     /// its roll and pitch to it. Without it the camera may point anywhere (hand-held).
     #[arg(long, value_name = "DEG")]
     camera_tilt_deg: Option<f64>,
+    /// The camera looks forward from a ground vehicle, and its motion leaves its optical axis
+    /// by about this much as the vehicle turns and pitches (standard deviation, degrees): the
+    /// method holds the camera's velocity to it. Without it the camera may move in any
+    /// direction (hand-held).
+    #[arg(long, value_name = "DEG")]
+    camera_sideslip_deg: Option<f64>,
 }
 
 /// Runs the camera method; prints the summary on stdout.
@@ -51,6 +57,7 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
             level: args
                 .camera_tilt_deg
                 .map_or(Ok(None), super::camera_args::level_prior_of)?,
+            forward_motion: super::camera_args::forward_motion_prior(args.camera_sideslip_deg)?,
             ..host::camera::MonoSlamOptions::default()
         },
         progress: true,

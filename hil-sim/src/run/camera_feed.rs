@@ -7,7 +7,7 @@ use std::sync::mpsc::{self, Receiver};
 use std::thread;
 use std::time::Instant;
 
-use host::camera::{LevelPrior, PinholeCamera};
+use host::camera::{ForwardMotionPrior, LevelPrior, PinholeCamera};
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -24,17 +24,23 @@ pub struct CameraRunOptions {
     pub rig: CameraRigOptions,
     /// How the camera method holds the camera level (`None`: it does not).
     pub level: Option<LevelPrior>,
+    /// How the camera method holds the camera's motion to its optical axis (`None`: it
+    /// does not).
+    pub forward_motion: Option<ForwardMotionPrior>,
 }
 
 impl Default for CameraRunOptions {
-    /// 10 frames a second, no walkers, the default rig, held level as the robot's camera
-    /// pipeline holds it by default.
+    /// 10 frames a second, no walkers, the default rig, held as the robot's camera pipeline
+    /// holds it by default.
     fn default() -> Self {
         CameraRunOptions {
             rate_hz: 10.0,
             movers: 0,
             rig: CameraRigOptions::default(),
             level: host::camera::CameraPipelineOptions::default().slam.level,
+            forward_motion: host::camera::CameraPipelineOptions::default()
+                .slam
+                .forward_motion,
         }
     }
 }
@@ -65,6 +71,7 @@ const RENDERED_AHEAD: usize = 3;
 pub struct CameraFeed {
     camera: PinholeCamera,
     level: Option<LevelPrior>,
+    forward_motion: Option<ForwardMotionPrior>,
     period_us: f64,
     next_frame: u64,
     /// The renderer's frames; it stops when this end is dropped.
@@ -96,6 +103,7 @@ impl CameraFeed {
         Ok(CameraFeed {
             camera,
             level: options.level,
+            forward_motion: options.forward_motion,
             period_us,
             next_frame: 0,
             frames,
@@ -110,6 +118,12 @@ impl CameraFeed {
     /// How the camera method holds the camera level (`None`: it does not).
     pub fn level(&self) -> Option<LevelPrior> {
         self.level
+    }
+
+    /// How the camera method holds the camera's motion to its optical axis (`None`: it
+    /// does not).
+    pub fn forward_motion(&self) -> Option<ForwardMotionPrior> {
+        self.forward_motion
     }
 
     /// The next frame if its time is at or before `t_us`.

@@ -12,7 +12,8 @@
 use std::io;
 
 use host::camera::{
-    CameraPipeline, CameraPipelineOptions, LevelPrior, MonoSlamOptions, PinholeCamera,
+    CameraPipeline, CameraPipelineOptions, ForwardMotionPrior, LevelPrior, MonoSlamOptions,
+    PinholeCamera,
 };
 use host::ekf_slam::{EkfPipeline, EkfPipelineStats, MappedLandmark};
 use host::geometry::Pose2;
@@ -58,14 +59,16 @@ impl Estimator {
         Estimator::Ekf(Box::new(EkfPipeline::new(&options)))
     }
 
-    /// The camera method with `camera`, held `level` (`None`: not held level), its local
-    /// metric frame at `datum_lat_lon_deg`.
+    /// The camera method with `camera`, held `level` (`None`: not held level), its motion
+    /// held to its optical axis by `forward_motion` (`None`: not), its local metric frame at
+    /// `datum_lat_lon_deg`.
     ///
     /// # Errors
     /// The datum is not a latitude and longitude.
     pub fn camera(
         camera: PinholeCamera,
         level: Option<LevelPrior>,
+        forward_motion: Option<ForwardMotionPrior>,
         datum_lat_lon_deg: [f64; 2],
     ) -> io::Result<Estimator> {
         let defaults = CameraPipelineOptions::default();
@@ -73,6 +76,7 @@ impl Estimator {
             datum_lat_lon_deg: Some(datum_lat_lon_deg),
             slam: MonoSlamOptions {
                 level,
+                forward_motion,
                 ..defaults.slam
             },
             ..defaults

@@ -569,7 +569,12 @@ fn execute(
     // A camera relayed to another program is that program's: this side maps with the laser.
     let camera_relayed = relay.as_ref().is_some_and(|(_, camera)| camera.is_some());
     let estimator = if let Some(camera) = chain.camera.as_ref().filter(|_| !camera_relayed) {
-        Estimator::camera(*camera.camera(), camera.level(), datum)?
+        Estimator::camera(
+            *camera.camera(),
+            camera.level(),
+            camera.forward_motion(),
+            datum,
+        )?
     } else if chain.uses_landmarks {
         Estimator::ekf(datum)
     } else {

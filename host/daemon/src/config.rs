@@ -285,6 +285,11 @@ pub struct CameraConfig {
     /// slope), standard deviation in degrees; the camera method holds its roll and pitch to
     /// it (`host::camera::LevelPrior`). 0: the camera is not held level.
     pub tilt_sigma_deg: f64,
+    /// The camera looks forward, and its motion leaves its optical axis by about this much
+    /// as the robot turns (standard deviation, degrees); the camera method holds the camera's
+    /// velocity to it (`host::camera::ForwardMotionPrior`, 3° suits a camera ahead of the
+    /// robot's axle). 0 (the default): the camera may move in any direction.
+    pub sideslip_sigma_deg: f64,
 }
 
 impl Default for CameraConfig {
@@ -301,6 +306,7 @@ impl Default for CameraConfig {
             distortion: [0.0; 5],
             jpeg_quality: 85,
             tilt_sigma_deg: host::camera::LevelPrior::DEFAULT_TILT_DEG,
+            sideslip_sigma_deg: 0.0,
         }
     }
 }
@@ -319,6 +325,15 @@ impl CameraConfig {
     pub fn level_prior(&self) -> Option<host::camera::LevelPrior> {
         // A tilt `validate` refuses is not held level.
         host::camera::LevelPrior::from_tilt_deg(self.tilt_sigma_deg)
+            .ok()
+            .flatten()
+    }
+
+    /// How the camera method holds the camera's motion to its optical axis (`None`: it does
+    /// not).
+    pub fn forward_motion_prior(&self) -> Option<host::camera::ForwardMotionPrior> {
+        // A sideslip `validate` refuses is no prior.
+        host::camera::ForwardMotionPrior::from_sideslip_deg(self.sideslip_sigma_deg)
             .ok()
             .flatten()
     }
@@ -478,6 +493,8 @@ impl DaemonConfig {
         }
         host::camera::LevelPrior::from_tilt_deg(self.camera.tilt_sigma_deg)
             .map_err(|e| ConfigError::Invalid(format!("camera.tilt_sigma_deg: {e}")))?;
+        host::camera::ForwardMotionPrior::from_sideslip_deg(self.camera.sideslip_sigma_deg)
+            .map_err(|e| ConfigError::Invalid(format!("camera.sideslip_sigma_deg: {e}")))?;
         if !(1..=100).contains(&self.camera.jpeg_quality) {
             return Err(ConfigError::Invalid(format!(
                 "camera.jpeg_quality must be 1 to 100, got {}",

@@ -565,6 +565,7 @@ pub(crate) fn camera_pipeline(config: &DaemonConfig) -> Result<CameraPipeline, D
             datum_lat_lon_deg: config.georef.datum_lat_lon_deg,
             slam: host::camera::MonoSlamOptions {
                 level: config.camera.level_prior(),
+                forward_motion: config.camera.forward_motion_prior(),
                 ..defaults.slam
             },
             ..defaults

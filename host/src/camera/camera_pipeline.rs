@@ -66,8 +66,9 @@ pub struct CameraPipelineOptions {
 
 impl Default for CameraPipelineOptions {
     /// The camera method's defaults held level as a camera on a ground robot is
-    /// ([`LevelPrior`]'s default), the GPS defaults, the datum at the first fix, aligned over
-    /// 20 m, fixes paired within 0.5 s of a frame.
+    /// ([`LevelPrior`]'s default; not held to move forward, [`super::ForwardMotionPrior`]), the GPS
+    /// defaults, the datum at the first fix, aligned over 20 m, fixes paired within 0.5 s of
+    /// a frame.
     fn default() -> Self {
         CameraPipelineOptions {
             slam: MonoSlamOptions {

@@ -6,6 +6,8 @@
 //! * [`sequence`]: recorded sequences in the KITTI and TUM layouts, with ground truth.
 //! * [`patch`]: feature patches and their correlation search; [`appearance`]: a feature's
 //!   first sighting, warped to the view of the camera now.
+//! * [`forward_motion_prior`]: a camera looking forward from a ground vehicle,
+//!   [`ForwardMotionPrior`].
 //! * [`history_memory`]: finished local maps' features, recognised and used again.
 //! * [`known_target`]: a target of known corners that gives a run its scale.
 //! * [`level_prior`]: a camera held level on a ground robot, [`LevelPrior`].
@@ -16,6 +18,7 @@
 
 pub mod appearance;
 pub mod camera_pipeline;
+pub mod forward_motion_prior;
 pub mod history_memory;
 pub mod known_target;
 pub mod level_prior;
@@ -28,6 +31,7 @@ pub mod sequence;
 pub mod trajectory_error;
 
 pub use camera_pipeline::{CameraPipeline, CameraPipelineOptions, CameraPipelineStats, CameraPose};
+pub use forward_motion_prior::ForwardMotionPrior;
 pub use known_target::{KnownTarget, TargetCorner, TargetError, parse_known_target};
 pub use level_prior::{LevelPrior, level_frame};
 pub use mono_ekf::{MonoEkf, MonoEkfOptions};

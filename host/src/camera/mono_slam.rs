@@ -30,6 +30,7 @@ use image::GrayImage;
 use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
 use super::appearance::Appearance;
+use super::forward_motion_prior::ForwardMotionPrior;
 use super::history_memory::{CameraHistory, CameraHistoryOptions};
 use super::known_target::{KnownTarget, TargetError};
 use super::level_prior::LevelPrior;
@@ -89,6 +90,9 @@ pub struct MonoSlamOptions {
     /// The camera is held level (on a ground robot), and how level; `None` for a camera that
     /// may point anywhere (hand-held, or a recorded sequence).
     pub level: Option<LevelPrior>,
+    /// The camera looks forward from a ground vehicle and moves along its optical axis, and
+    /// how closely; `None` for a camera that may move in any direction (hand-held).
+    pub forward_motion: Option<ForwardMotionPrior>,
 }
 
 impl Default for MonoSlamOptions {
@@ -112,6 +116,7 @@ impl Default for MonoSlamOptions {
             target_sigma_m: 0.005,
             history: CameraHistoryOptions::default(),
             level: None,
+            forward_motion: None,
         }
     }
 }
@@ -433,6 +438,10 @@ impl MonoSlam {
                 let down_in_local = self.world_from_local.1.inverse() * Vector3::y();
                 self.filter
                     .update_level(&down_in_local, level.sigma_per_frame_rad(dt_s));
+            }
+            if let Some(forward) = self.options.forward_motion {
+                self.filter
+                    .update_forward_motion(forward.sideslip_sigma_rad);
             }
         }
         self.last_time_s = Some(time_s);
