@@ -87,13 +87,8 @@ pub fn ideal_orientation_nees(
         let t_s = frame as f64 / rate_hz;
         if frame > 0 {
             filter.predict(1.0 / rate_hz);
-            if let Some(level) = slam.level {
-                // The first camera is level: its y axis is down.
-                filter.update_level(&Vector3::y(), level.sigma_per_frame_rad(1.0 / rate_hz));
-            }
-            if let Some(forward) = slam.forward_motion {
-                filter.update_forward_motion(forward.sideslip_sigma_rad);
-            }
+            // The first camera is level: its y axis is down.
+            slam.hold_to_priors(&mut filter, &Vector3::y(), 1.0 / rate_hz);
         }
         let (position_m, world_from_camera) = view.camera_pose(&scenario.pose_at(t_s));
         let camera_from_world = world_from_camera.inverse();

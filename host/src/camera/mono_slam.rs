@@ -121,6 +121,20 @@ impl Default for MonoSlamOptions {
     }
 }
 
+impl MonoSlamOptions {
+    /// Holds `filter`, just predicted `dt_s` ahead, to the camera's mounting: level
+    /// ([`Self::level`], gravity along `down_in_world` in the filter's world frame) and
+    /// moving forward ([`Self::forward_motion`]), where they are set.
+    pub fn hold_to_priors(&self, filter: &mut MonoEkf, down_in_world: &Vector3<f64>, dt_s: f64) {
+        if let Some(level) = self.level {
+            filter.update_level(down_in_world, level.sigma_per_frame_rad(dt_s));
+        }
+        if let Some(forward) = self.forward_motion {
+            filter.update_forward_motion(forward.sideslip_sigma_rad);
+        }
+    }
+}
+
 /// A feature's appearance and its record.
 #[derive(Clone, Debug)]
 struct Track {
@@ -433,16 +447,10 @@ impl MonoSlam {
         if let Some(last) = self.last_time_s {
             let dt_s = time_s - last;
             self.filter.predict(dt_s);
-            if let Some(level) = self.options.level {
-                // Gravity in the current local map's frame (the world frame's y is down).
-                let down_in_local = self.world_from_local.1.inverse() * Vector3::y();
-                self.filter
-                    .update_level(&down_in_local, level.sigma_per_frame_rad(dt_s));
-            }
-            if let Some(forward) = self.options.forward_motion {
-                self.filter
-                    .update_forward_motion(forward.sideslip_sigma_rad);
-            }
+            // Gravity in the current local map's frame (the world frame's y is down).
+            let down_in_local = self.world_from_local.1.inverse() * Vector3::y();
+            self.options
+                .hold_to_priors(&mut self.filter, &down_in_local, dt_s);
         }
         self.last_time_s = Some(time_s);
         self.place_recognised = None;
