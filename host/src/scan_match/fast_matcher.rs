@@ -111,6 +111,14 @@ pub struct PreparedReference {
     reference_px: u32,
 }
 
+impl PreparedReference {
+    /// Pixels of the reference drawing ([`MatchResult::score_px`] is these plus what the new
+    /// scan adds).
+    pub fn reference_px(&self) -> u32 {
+        self.reference_px
+    }
+}
+
 impl FastMatcher {
     /// Draws `reference` into this matcher's raster and pools it for its search.
     pub fn prepare(&self, reference: &Scan) -> PreparedReference {
@@ -149,6 +157,62 @@ impl FastMatcher {
         new: &Scan,
         initial_reference_from_new: Pose2,
     ) -> Result<MatchResult, ScanMatchError> {
+        self.search_prepared(reference, new, initial_reference_from_new, None)?
+            .ok_or(ScanMatchError::InvalidOptions("empty search table"))
+    }
+
+    /// [`Self::match_prepared`] over the candidates outside `excluded` only: the best match
+    /// of another hypothesis than the one `excluded` surrounds. `None` when every candidate
+    /// lies within it.
+    ///
+    /// # Errors
+    ///
+    /// As [`Self::match_prepared`].
+    pub fn match_prepared_outside(
+        &self,
+        reference: &PreparedReference,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+        excluded: Excluded,
+    ) -> Result<Option<MatchResult>, ScanMatchError> {
+        self.search_prepared(reference, new, initial_reference_from_new, Some(excluded))
+    }
+
+    /// How many pixels the drawing of `new` at `candidate` (around `initial_reference_from_new`)
+    /// sets inside the raster: what [`MatchResult::score_px`] less the reference's pixels is
+    /// out of, so that `drawn - uncovered` is the overlap of the two drawings.
+    pub fn drawn_px(
+        &self,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+        candidate: Candidate,
+    ) -> u32 {
+        let raster = &self.raster;
+        let table = &self.table;
+        let rotation_only = Pose2 {
+            theta_rad: table.angle_rad(initial_reference_from_new, candidate.rotation_index),
+            ..initial_reference_from_new
+        };
+        let polyline = Polyline::new(new, raster.max_gap_m);
+        let vertices_px = polyline.vertices_px(rotation_only, raster);
+        let margin_px = table.max_offset_px().map(|m| m as usize);
+        let drawing = RotatedScan::new(&polyline, &vertices_px, raster, margin_px);
+        let mut empty = BitGrid::new(raster.width_px as usize, raster.height_px as usize, 0);
+        empty.fill_padding();
+        drawing.uncovered_px(
+            &empty,
+            table.offset_px(candidate.x_index, candidate.y_index),
+        )
+    }
+
+    /// The search of [`Self::match_prepared`], over the candidates outside `excluded`.
+    fn search_prepared(
+        &self,
+        reference: &PreparedReference,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+        excluded: Option<Excluded>,
+    ) -> Result<Option<MatchResult>, ScanMatchError> {
         check_guess(initial_reference_from_new)?;
         let raster = &self.raster;
         let table = &self.table;
@@ -182,6 +246,7 @@ impl FastMatcher {
             best: (u32::MAX, usize::MAX),
             candidates_evaluated: 0,
             guess_index: None,
+            excluded,
             queue: BinaryHeap::new(),
         };
         // The guess itself first: a real candidate, so that its score bounds the search from
@@ -191,13 +256,15 @@ impl FastMatcher {
             y_index: table.y_half_steps,
             x_index: table.x_half_steps,
         };
-        search.push(Block {
-            level: 0,
-            rotation_index: guess.rotation_index,
-            y_index: guess.y_index,
-            x_index: guess.x_index,
-        });
-        search.guess_index = Some(table.index_of(guess));
+        if !excluded.is_some_and(|e| e.contains(guess)) {
+            search.push(Block {
+                level: 0,
+                rotation_index: guess.rotation_index,
+                y_index: guess.y_index,
+                x_index: guess.x_index,
+            });
+            search.guess_index = Some(table.index_of(guess));
+        }
         let block_side = 1usize << depth;
         for rotation_index in 0..table.num_rotations() as u32 {
             for y_index in (0..table.num_y()).step_by(block_side) {
@@ -214,6 +281,9 @@ impl FastMatcher {
         search.explore();
 
         let (uncovered_px, table_index) = search.best;
+        if table_index == usize::MAX {
+            return Ok(None);
+        }
         MatchResult::for_table_entry(
             table,
             raster,
@@ -222,6 +292,7 @@ impl FastMatcher {
             reference_px + uncovered_px,
             search.candidates_evaluated,
         )
+        .map(Some)
     }
 }
 
@@ -236,6 +307,30 @@ impl ScanMatcher for FastMatcher {
     ) -> Result<MatchResult, ScanMatchError> {
         check_guess(initial_reference_from_new)?;
         self.match_prepared(&self.prepare(reference), new, initial_reference_from_new)
+    }
+}
+
+/// The candidates within `half_steps` table steps (x, y, rotation) of `around`, left out of
+/// a search ([`FastMatcher::match_prepared_outside`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Excluded {
+    /// The candidate at the centre.
+    pub around: Candidate,
+    /// How far either way, in table steps along x, y and rotation.
+    pub half_steps: [u32; 3],
+}
+
+impl Excluded {
+    /// Whether `candidate` is left out.
+    pub fn contains(&self, candidate: Candidate) -> bool {
+        let within = |a: u32, b: u32, half: u32| a.abs_diff(b) <= half;
+        within(candidate.x_index, self.around.x_index, self.half_steps[0])
+            && within(candidate.y_index, self.around.y_index, self.half_steps[1])
+            && within(
+                candidate.rotation_index,
+                self.around.rotation_index,
+                self.half_steps[2],
+            )
     }
 }
 
@@ -288,6 +383,8 @@ struct Search<'a> {
     candidates_evaluated: usize,
     /// The table number of the guess, once scored (it is scored first).
     guess_index: Option<usize>,
+    /// Candidates never scored (their blocks' bounds still hold for the rest).
+    excluded: Option<Excluded>,
     /// Blocks waiting, lowest key first.
     queue: BinaryHeap<BoundedBlock>,
 }
@@ -303,6 +400,17 @@ impl Search<'_> {
         });
         if block.level == 0 && self.guess_index == Some(lowest_index) {
             // Scored first of all.
+            return;
+        }
+        if block.level == 0
+            && self.excluded.is_some_and(|e| {
+                e.contains(Candidate {
+                    rotation_index: block.rotation_index,
+                    y_index: block.y_index,
+                    x_index: block.x_index,
+                })
+            })
+        {
             return;
         }
         let offset_px = self.table.offset_px(block.x_index, block.y_index);
@@ -484,6 +592,74 @@ mod tests {
             prop_assert_eq!(actual.reference_from_new, expected.reference_from_new);
             prop_assert!(actual.candidates_evaluated <= expected.candidates_evaluated);
         }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// Outside an excluded box the branch and bound finds what scoring every candidate
+        /// of the rest finds; and a box without the best candidate changes nothing.
+        #[test]
+        fn prop_outside_an_excluded_box_the_search_finds_the_best_of_the_rest(
+            (reference, new) in scan_pair(),
+            raster in raster(),
+            table in table(),
+            guess in pose(0.5, 0.3),
+            centre in (0.0..1.0f64, 0.0..1.0f64, 0.0..1.0f64),
+            half_steps in (0u32..3, 0u32..3, 0u32..2),
+        ) {
+            let fast = FastMatcher::new(raster, table).unwrap();
+            let every = fast.clone().with_branch_and_bound_depth(0);
+            let pick = |unit: f64, count: usize| ((unit * count as f64) as u32).min(count as u32 - 1);
+            let excluded = Excluded {
+                around: Candidate {
+                    x_index: pick(centre.0, table.num_x()),
+                    y_index: pick(centre.1, table.num_y()),
+                    rotation_index: pick(centre.2, table.num_rotations()),
+                },
+                half_steps: [half_steps.0, half_steps.1, half_steps.2],
+            };
+            let outside = |matcher: &FastMatcher| {
+                matcher
+                    .match_prepared_outside(&matcher.prepare(&reference), &new, guess, excluded)
+                    .unwrap()
+            };
+            let (found, expected) = (outside(&fast), outside(&every));
+            prop_assert_eq!(found.map(|r| (r.table_index, r.score_px)), expected.map(|r| (r.table_index, r.score_px)));
+            if let Some(found) = found {
+                prop_assert!(!excluded.contains(found.candidate));
+            } else {
+                prop_assert!((0..table.len()).all(|i| excluded.contains(table.candidate(i).unwrap())));
+            }
+            let best = fast.match_scans(&reference, &new, guess).unwrap();
+            if !excluded.contains(best.candidate) {
+                prop_assert_eq!(found.map(|r| r.table_index), Some(best.table_index));
+            }
+        }
+    }
+
+    #[test]
+    fn the_drawn_pixels_less_the_uncovered_ones_are_the_overlap() {
+        let walls = polygon_walls(&[[-3.0, -2.0], [4.0, -2.5], [3.0, 3.0], [-2.0, 2.0]]);
+        let scan = cast_scan(&walls, Pose2::IDENTITY, -PI, 0.05, 125, 8.0);
+        let table = SearchTable {
+            x_half_steps: 3,
+            y_half_steps: 3,
+            translation_step_px: 1,
+            rotation_half_steps: 2,
+            rotation_step_rad: 0.02,
+        };
+        let matcher = FastMatcher::new(RasterOptions::default(), table).unwrap();
+        let reference = matcher.prepare(&scan);
+        let found = matcher
+            .match_prepared(&reference, &scan, Pose2::IDENTITY)
+            .unwrap();
+        // The scan on itself: nothing uncovered, and the overlap is its whole drawing.
+        assert_eq!(found.score_px, reference.reference_px());
+        assert_eq!(
+            matcher.drawn_px(&scan, Pose2::IDENTITY, found.candidate),
+            reference.reference_px()
+        );
     }
 
     #[test]

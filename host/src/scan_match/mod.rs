@@ -27,7 +27,7 @@ mod simd;
 pub mod synthetic;
 
 pub use bresenham::BresenhamLine;
-pub use fast_matcher::{FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH, PreparedReference};
+pub use fast_matcher::{Excluded, FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH, PreparedReference};
 pub use reference_matcher::ReferenceMatcher;
 pub use scan::Scan;
 pub use search::{Candidate, MatchResult, RasterOptions, ScanMatchError, ScanMatcher, SearchTable};

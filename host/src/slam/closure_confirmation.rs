@@ -26,6 +26,8 @@ pub struct ConfirmationOptions {
     /// most this many apart: the one frame is carried into the other through local
     /// tracking's poses. 0 asks for the same frame (the same submap).
     pub max_frame_gap_nodes: usize,
+    /// A closure enters with the earlier ones that agree with it once at least this many do.
+    pub min_agreeing: usize,
 }
 
 impl Default for ConfirmationOptions {
@@ -35,6 +37,7 @@ impl Default for ConfirmationOptions {
             max_translation_m: 0.3,
             max_rotation_rad: 3f64.to_radians(),
             max_frame_gap_nodes: 0,
+            min_agreeing: 1,
         }
     }
 }
@@ -132,9 +135,8 @@ impl ClosureConfirmation {
             *rejected += usize::from(!kept && !added);
             kept
         });
-        let mut confirmed = Vec::new();
-        let mut agrees = false;
-        for (earlier, added) in &mut self.recent {
+        let mut agreeing = Vec::new();
+        for (index, (earlier, _)) in self.recent.iter().enumerate() {
             let frame_gap = earlier.submap_first_node.abs_diff(found.submap_first_node);
             if frame_gap > self.options.max_frame_gap_nodes || earlier.node == found.node {
                 continue;
@@ -161,13 +163,18 @@ impl ClosureConfirmation {
             {
                 continue;
             }
-            agrees = true;
-            if !*added {
-                *added = true;
-                confirmed.push(*earlier);
-            }
+            agreeing.push(index);
         }
+        let agrees = !agreeing.is_empty() && agreeing.len() >= self.options.min_agreeing;
+        let mut confirmed = Vec::new();
         if agrees {
+            for index in agreeing {
+                let (earlier, added) = &mut self.recent[index];
+                if !*added {
+                    *added = true;
+                    confirmed.push(*earlier);
+                }
+            }
             confirmed.push(found);
         }
         self.recent.push((found, agrees));
@@ -209,6 +216,41 @@ mod tests {
         };
         assert_eq!(confirmation.offer(second, &poses), vec![first, second]);
         assert_eq!(confirmation.rejected_at_end(), 0);
+    }
+
+    #[test]
+    fn asked_for_two_agreeing_a_closure_waits_for_the_second() {
+        let poses = straight_line(60);
+        let mut confirmation = ClosureConfirmation::new(ConfirmationOptions {
+            min_agreeing: 2,
+            ..ConfirmationOptions::default()
+        });
+        let (sin, cos) = 0.1f64.sin_cos();
+        let at = |node: usize| {
+            let along_m = (node - 40) as f64;
+            FoundClosure {
+                submap_first_node: 0,
+                node,
+                pose_in_submap: Pose2::new(2.0 + along_m * cos, 1.0 + along_m * sin, 0.1),
+                information_in_robot: None,
+            }
+        };
+        assert!(confirmation.offer(at(40), &poses).is_empty());
+        // One agrees: not yet.
+        assert!(confirmation.offer(at(42), &poses).is_empty());
+        // One that disagrees (a metre off) changes nothing.
+        let off = FoundClosure {
+            pose_in_submap: Pose2::new(2.0 + 3.0 * cos, 2.0 + 3.0 * sin, 0.1),
+            ..at(43)
+        };
+        assert!(confirmation.offer(off, &poses).is_empty());
+        // The third agrees with both earlier ones: all three enter.
+        assert_eq!(
+            confirmation.offer(at(45), &poses),
+            vec![at(40), at(42), at(45)]
+        );
+        // The one that disagreed is rejected once out of the window.
+        assert_eq!(confirmation.rejected_at_end(), 1);
     }
 
     #[test]

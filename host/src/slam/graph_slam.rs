@@ -47,10 +47,15 @@ pub struct SlamStats {
     /// Of those, the searches over the wide window of a pose too uncertain for the usual one
     /// ([`super::UncertainClosureOptions`]).
     pub uncertain_closure_searches: usize,
+    /// Of those, the searches for weak matches ([`super::WeakClosureOptions`]).
+    pub weak_closure_searches: usize,
+    /// Weak matches that entered the graph (counted in `loop_closures` too).
+    pub weak_closures: usize,
     /// Loop-closure constraints added (chain closures included).
     pub loop_closures: usize,
     /// Loop closures found and rejected: no second one agreed with them on the motion local
-    /// tracking measured between them (chain closures included; those still waiting count).
+    /// tracking measured between them (chain closures and weak matches included; those still
+    /// waiting count).
     pub rejected_closures: usize,
     /// Constraints in the graph (loop closures and refinement) that its robust kernel all but
     /// switched off at the last optimisation: weighted below one quarter, as they disagree
@@ -167,6 +172,13 @@ pub struct GraphSlam {
     last_search: Vec<usize>,
     /// For every finished submap, the node last searched in it by `uncertain_closer`.
     last_uncertain_search: Vec<usize>,
+    /// Searches a submap for a weak match ([`super::WeakClosureOptions`]).
+    weak_closer: LoopCloser,
+    /// Weak matches waiting for those that agree with them.
+    weak_confirmation: ClosureConfirmation,
+    /// The finished submaps near the last searched scan whose relative pose was uncertain
+    /// beyond the usual window: searched for weak matches until the next searched scan.
+    weak_targets: Vec<usize>,
     /// `map_from_local` as of the last optimisation.
     map_from_local: Pose2,
     /// Constraints added since the last solve: the end of a run solves for them.
@@ -217,6 +229,9 @@ impl GraphSlam {
             last_search: Vec::new(),
             last_uncertain_search: Vec::new(),
             last_lost_node: None,
+            weak_closer: LoopCloser::new(options.weak_closure.search.clone())?,
+            weak_confirmation: ClosureConfirmation::new(options.weak_closure.confirmation),
+            weak_targets: Vec::new(),
             map_from_local: Pose2::IDENTITY,
             closures_since_optimization: 0,
             chi2_since_optimization: 0.0,
@@ -361,6 +376,9 @@ impl GraphSlam {
             if self.options.uncertain_closure.enabled && !taken {
                 self.close_loops_beyond_window(node, &scan, beyond_window);
             }
+            if self.options.weak_closure.enabled && !taken {
+                self.close_loops_weakly(node, &scan, pose_in_map);
+            }
             self.follow_waiting_closures(node, &scan);
         }
         // Less what the parts timed apart took meanwhile.
@@ -442,7 +460,9 @@ impl GraphSlam {
     pub fn stats(&self) -> SlamStats {
         SlamStats {
             nodes: self.poses_in_local.len(),
-            rejected_closures: self.confirmation.rejected_at_end() + self.chains.rejected(),
+            rejected_closures: self.confirmation.rejected_at_end()
+                + self.weak_confirmation.rejected_at_end()
+                + self.chains.rejected(),
             settled_submaps: self.settled.settled_submaps(),
             fixed_nodes: self.settled_nodes.len(),
             ..self.stats
@@ -526,6 +546,7 @@ impl GraphSlam {
         covariances: &RelativeCovariances,
     ) -> (bool, Vec<SubmapGuess>) {
         let options = self.closer.options().clone();
+        self.weak_targets.clear();
         let mut near: Vec<SubmapGuess> = Vec::new();
         let mut beyond_window: Vec<SubmapGuess> = Vec::new();
         for (index, (submap, _)) in self.finished.iter().enumerate() {
@@ -567,6 +588,9 @@ impl GraphSlam {
                     near.push(guess);
                 }
             }
+            if !fits_window && distance_m <= options.max_distance_m {
+                self.weak_targets.push(index);
+            }
             if !fits_window && distance_m <= options.max_distance_m + reach_m {
                 beyond_window.push(guess);
             }
@@ -591,6 +615,75 @@ impl GraphSlam {
             taken |= self.offer_closure(node, guess.submap, closure).is_some();
         }
         (taken, beyond_window)
+    }
+
+    /// Searches the scan of `node` for weak matches in the nearest of the submaps whose
+    /// relative pose was uncertain beyond the window at the last searched scan, and adds what
+    /// is distinctive, within the graph's uncertainty and confirmed
+    /// ([`super::WeakClosureOptions`]).
+    fn close_loops_weakly(&mut self, node: usize, scan: &Scan, pose_in_map: Pose2) {
+        let budget = self.options.weak_closure.max_searches_per_scan;
+        let mut guesses: Vec<(f64, usize, Pose2)> = self
+            .weak_targets
+            .iter()
+            .filter_map(|&index| {
+                let submap_in_map = self.node_pose_in_map(self.finished[index].0.first_node())?;
+                let guess = submap_in_map.inverse() * pose_in_map;
+                Some((guess.x_m.hypot(guess.y_m), index, guess))
+            })
+            .collect();
+        guesses.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, index, guess) in guesses.into_iter().take(budget) {
+            let (submap, reference) = &self.finished[index];
+            self.stats.loop_closure_searches += 1;
+            self.stats.weak_closure_searches += 1;
+            let Some(closure) = self.weak_closer.search(submap, reference, scan, guess) else {
+                continue;
+            };
+            let found = found_closure(node, submap.first_node(), &closure);
+            if !self.is_consistent_with_graph(&found) {
+                continue;
+            }
+            // Distinctive over as wide a window as the pose is uncertain: a look-alike that
+            // fits best only in the usual window around a wrong estimate is refused.
+            let reference_scan = submap.reference_scan_from(|n| self.node_scan(n, scan));
+            let ambiguity = self.uncertain_closer.ambiguity_around(
+                &reference_scan,
+                scan,
+                closure.pose_in_submap,
+            );
+            if ambiguity > self.options.weak_closure.max_ambiguity {
+                continue;
+            }
+            for confirmed in self.weak_confirmation.offer(found, &self.poses_in_local) {
+                self.stats.weak_closures += 1;
+                self.add_closure(confirmed);
+            }
+        }
+    }
+
+    /// Whether `closure` lies within the uncertainty of its scan's pose relative to its
+    /// submap's frame, as the graph holds them now (its χ² against the sum of both
+    /// covariances within [`LoopClosureOptions::max_consistent_chi2`]).
+    ///
+    /// [`LoopClosureOptions::max_consistent_chi2`]: super::LoopClosureOptions::max_consistent_chi2
+    fn is_consistent_with_graph(&self, closure: &FoundClosure) -> bool {
+        let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
+        let information = closure_information(&self.options, closure.information_in_robot.as_ref());
+        let edge = Edge::new(from, to, closure.pose_in_submap, information);
+        self.chi2_against_uncertainty(&edge)
+            .is_some_and(|chi2| chi2 <= self.options.loop_closure.max_consistent_chi2)
+    }
+
+    /// The χ² of `edge` (not yet in the graph) at the current poses against the sum of its
+    /// own covariance and that of its end's pose relative to its start.
+    fn chi2_against_uncertainty(&self, edge: &Edge) -> Option<f64> {
+        let from = self.graph.node(edge.from)?;
+        let to = self.graph.node(edge.to)?;
+        let relative = relative_covariance(&self.graph, edge.to, edge.from)?;
+        let combined = (relative + edge.information.try_inverse()?).try_inverse()?;
+        let error = edge.error(from.pose_in_map, to.pose_in_map);
+        Some(error.dot(&(combined * error)))
     }
 
     /// Searches the scan of `node` over the uncertain closer's wide window in a few of
@@ -703,7 +796,8 @@ impl GraphSlam {
         index: usize,
         closure: Option<super::loop_closer::LoopClosure>,
     ) -> Option<FoundClosure> {
-        let found = found_closure(node, self.finished[index].0.first_node(), &closure?);
+        let closure = closure?;
+        let found = found_closure(node, self.finished[index].0.first_node(), &closure);
         for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
             self.add_closure(confirmed);
         }
@@ -892,15 +986,8 @@ impl GraphSlam {
         if edge.kernel.is_none_or(|kernel| kernel.weight(chi2) >= 1.0) {
             return false;
         }
-        let relative = relative_covariance(&self.graph, edge.to, edge.from);
-        let Some(combined) = relative
-            .zip(edge.information.try_inverse())
-            .and_then(|(relative, own)| (relative + own).try_inverse())
-        else {
-            return false;
-        };
-        let error = edge.error(from.pose_in_map, to.pose_in_map);
-        error.dot(&(combined * error)) <= self.options.loop_closure.max_consistent_chi2
+        self.chi2_against_uncertainty(edge)
+            .is_some_and(|chi2| chi2 <= self.options.loop_closure.max_consistent_chi2)
     }
 
     fn optimize(&mut self) {

@@ -18,7 +18,9 @@ use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::window_matcher::window_matcher;
 use crate::geometry::Pose2;
 use crate::grid::Occupancy;
-use crate::scan_match::{FastMatcher, PreparedReference, Scan, ScanMatchError};
+use crate::scan_match::{
+    Candidate, Excluded, FastMatcher, MatchResult, PreparedReference, Scan, ScanMatchError,
+};
 
 /// A scan found in a submap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,6 +111,58 @@ impl LoopCloser {
         self.align_from(submap, scan, found.reference_from_new)
     }
 
+    /// The candidates around `centre` that the alignment of `scan` pulls in from: within the
+    /// ICP's first pairing distance, and the turn that moves an end point at the scan's
+    /// median range that far.
+    fn basin(&self, scan: &Scan, centre: Candidate) -> Excluded {
+        let table = self.matcher.table();
+        let step_m = f64::from(table.translation_step_px) * self.matcher.raster().resolution_m;
+        let basin_m = self.options.icp.stages_m.first().copied().unwrap_or(0.5);
+        let mut ranges_m: Vec<f64> = scan
+            .points_in_robot()
+            .iter()
+            .flatten()
+            .map(|p| p[0].hypot(p[1]))
+            .collect();
+        ranges_m.sort_by(f64::total_cmp);
+        let median_m = ranges_m
+            .get(ranges_m.len() / 2)
+            .copied()
+            .unwrap_or(1.0)
+            .max(1.0);
+        let basin_rad = (basin_m / median_m).max(table.rotation_step_rad);
+        let half_xy = (basin_m / step_m).ceil() as u32;
+        let half_rotation = (basin_rad / table.rotation_step_rad).ceil() as u32;
+        Excluded {
+            around: centre,
+            half_steps: [half_xy, half_xy, half_rotation],
+        }
+    }
+
+    /// The ambiguity ([`Self::ambiguity_around`]) of the raster search's answer `found` for
+    /// `scan` around `guess`: the best candidate outside the basin of `found`
+    /// ([`Self::basin`]) against `found`, by the overlap of their drawings.
+    fn ambiguity(
+        &self,
+        reference: &PreparedReference,
+        scan: &Scan,
+        guess: Pose2,
+        found: &MatchResult,
+    ) -> f64 {
+        let matcher = &self.matcher;
+        let overlap = |result: &MatchResult| {
+            let drawn = matcher.drawn_px(scan, guess, result.candidate);
+            let uncovered = result.score_px.saturating_sub(reference.reference_px());
+            f64::from(drawn.saturating_sub(uncovered))
+        };
+        let best = overlap(found);
+        let excluded = self.basin(scan, found.candidate);
+        match matcher.match_prepared_outside(reference, scan, guess, excluded) {
+            Ok(Some(other)) if best > 0.0 => overlap(&other) / best,
+            _ => 0.0,
+        }
+    }
+
     /// [`Self::search`] over a window too wide for a raster centred on the submap's frame
     /// (the uncertain closer's, [`UncertainClosureOptions`](super::UncertainClosureOptions)):
     /// the submap's scans in its frame (`reference_scan`, as [`SlamSubmap::reference_scan`]
@@ -134,26 +188,74 @@ impl LoopCloser {
                 .collect(),
         );
         let reference = self.matcher.prepare(&reference_in_centre);
-        let options = &self.options;
-        let raster_half_m = 0.5 * f64::from(options.raster_side_px) * options.search_resolution_m;
-        let max_range_m = raster_half_m - options.search_window_m * std::f64::consts::SQRT_2;
-        let near_beams = Scan::from_points_in_robot(
-            scan.points_in_robot()
-                .iter()
-                .map(|p| p.filter(|p| p[0].hypot(p[1]) <= max_range_m))
-                .collect(),
-        );
+        let near_beams = self.near_beams(scan);
+        let guess_in_centre = centre_from_submap * guess_in_submap;
         let found = self
             .matcher
-            .match_prepared(
-                &reference,
-                &near_beams,
-                centre_from_submap * guess_in_submap,
-            )
+            .match_prepared(&reference, &near_beams, guess_in_centre)
             .ok()?;
         let candidate =
             self.align_from(submap, scan, submap_from_centre * found.reference_from_new)?;
         self.accept(submap, &candidate)
+    }
+
+    /// How ambiguous `pose_in_submap` is for `scan` over this searcher's whole window around
+    /// it: the raster search over the window, centred on the pose, against the submap's
+    /// scans in its frame (`reference_scan`, as in [`Self::search_around_guess`]). It is the
+    /// share of the pose's fit (the overlap of the drawings) that the best candidate outside
+    /// the pose's basin reaches: 0 where nothing else fits, 1 where another place fits as
+    /// well, and infinity where a candidate outside the basin fits best. A ratio test between
+    /// the two best hypotheses: a corridor or a row of like rooms fits another pose almost as
+    /// well. With the window as wide as the pose is uncertain, a look-alike that is the best
+    /// fit only in a narrower window around a wrong estimate is told apart.
+    pub fn ambiguity_around(
+        &self,
+        reference_scan: &Scan,
+        scan: &Scan,
+        pose_in_submap: Pose2,
+    ) -> f64 {
+        let submap_from_centre = Pose2::new(pose_in_submap.x_m, pose_in_submap.y_m, 0.0);
+        let centre_from_submap = submap_from_centre.inverse();
+        let reference_in_centre = Scan::from_points_in_robot(
+            reference_scan
+                .points_in_robot()
+                .iter()
+                .map(|p| p.map(|p| centre_from_submap.transform_point(p)))
+                .collect(),
+        );
+        let reference = self.matcher.prepare(&reference_in_centre);
+        let near_beams = self.near_beams(scan);
+        let pose_in_centre = centre_from_submap * pose_in_submap;
+        let Ok(found) = self
+            .matcher
+            .match_prepared(&reference, &near_beams, pose_in_centre)
+        else {
+            return f64::INFINITY;
+        };
+        let table = self.matcher.table();
+        let at_pose = Candidate {
+            x_index: table.x_half_steps,
+            y_index: table.y_half_steps,
+            rotation_index: table.rotation_half_steps,
+        };
+        if !self.basin(&near_beams, at_pose).contains(found.candidate) {
+            return f64::INFINITY;
+        }
+        self.ambiguity(&reference, &near_beams, pose_in_centre, &found)
+    }
+
+    /// The beams of `scan` that cannot leave a raster centred on a guess anywhere in the
+    /// window (see [`Self::search_around_guess`]).
+    fn near_beams(&self, scan: &Scan) -> Scan {
+        let options = &self.options;
+        let raster_half_m = 0.5 * f64::from(options.raster_side_px) * options.search_resolution_m;
+        let max_range_m = raster_half_m - options.search_window_m * std::f64::consts::SQRT_2;
+        Scan::from_points_in_robot(
+            scan.points_in_robot()
+                .iter()
+                .map(|p| p.filter(|p| p[0].hypot(p[1]) <= max_range_m))
+                .collect(),
+        )
     }
 
     /// [`Self::search`] without the raster search: `scan` aligned on the submap's points from
@@ -214,5 +316,61 @@ impl LoopCloser {
             fit,
             information_in_robot: candidate.information_in_robot,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan_match::synthetic::{cast_front_scan, irregular_room_walls, polygon_walls};
+    use crate::slam::{SlamOptions, UncertainClosureOptions};
+
+    /// The scans taken at `poses` among `walls`, in the frame of the first pose (the
+    /// identity), as a finished submap gives them.
+    fn reference_scan(walls: &[crate::scan_match::synthetic::WallInMap], poses: &[Pose2]) -> Scan {
+        let options = SlamOptions::default();
+        let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
+        for (node, &pose) in poses.iter().enumerate() {
+            submap.insert(node, &cast_front_scan(walls, pose), pose);
+        }
+        submap.reference_scan().expect("end points kept")
+    }
+
+    fn wide_closer() -> LoopCloser {
+        LoopCloser::new(UncertainClosureOptions::default().search).expect("valid options")
+    }
+
+    #[test]
+    fn a_place_no_other_pose_fits_is_not_ambiguous() {
+        let walls = irregular_room_walls();
+        let poses: Vec<Pose2> = (0..10)
+            .map(|i| Pose2::new(-1.0 + 0.2 * f64::from(i), 0.0, 0.1 * f64::from(i)))
+            .collect();
+        let reference = reference_scan(&walls, &poses);
+        let truth = Pose2::new(0.5, 0.3, 0.4);
+        let scan = cast_front_scan(&walls, truth);
+        let ambiguity = wide_closer().ambiguity_around(&reference, &scan, truth);
+        assert!(ambiguity < 0.6, "{ambiguity}");
+        // Two metres off, another pose fits better: infinitely ambiguous.
+        let off = Pose2::new(2.5, 0.3, 0.4);
+        assert_eq!(
+            wide_closer().ambiguity_around(&reference, &scan, off),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn a_corridor_that_fits_as_well_further_along_is_ambiguous() {
+        // A corridor 2 m wide and 80 m long, seen from near its middle: its ends lie beyond
+        // the 20 m range, so the scan fits as well anywhere along it.
+        let walls = polygon_walls(&[[-40.0, -1.0], [40.0, -1.0], [40.0, 1.0], [-40.0, 1.0]]);
+        let poses: Vec<Pose2> = (0..10)
+            .map(|i| Pose2::new(-1.0 + 0.2 * f64::from(i), 0.0, 0.0))
+            .collect();
+        let reference = reference_scan(&walls, &poses);
+        let truth = Pose2::new(0.5, 0.0, 0.0);
+        let scan = cast_front_scan(&walls, truth);
+        let ambiguity = wide_closer().ambiguity_around(&reference, &scan, truth);
+        assert!(ambiguity > 0.9, "{ambiguity}");
     }
 }

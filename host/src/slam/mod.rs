@@ -18,7 +18,10 @@
 //!   submaps are near, and how wide the window must be, follows from how uncertain the scan's
 //!   pose is relative to each submap, compounded along the pose graph
 //!   ([`crate::pose_graph::relative_covariances`]); where that reaches beyond the window, a
-//!   few submaps per scan are searched over a far wider one ([`UncertainClosureOptions`]). A scan
+//!   few submaps per scan are searched over a far wider one ([`UncertainClosureOptions`]), and
+//!   every scan is searched in the nearest of them for weak matches, fewer of whose end points
+//!   lie on the submap's surfaces, taken where they lie within that uncertainty, the place is
+//!   distinctive across it and two more agree ([`WeakClosureOptions`]). A scan
 //!   no submap took is searched once more, over ±10 m, in a chain of the earlier scans
 //!   around the one nearest to it ([`ChainClosureOptions`]): a long loop drifts further than
 //!   the submaps' window, and a stretch that local tracking got wrong blurs a whole submap.
@@ -70,7 +73,7 @@ pub use motion_filter::{MotionFilter, MotionFilterOptions};
 pub use motion_prior::{MotionPrior, MotionPriorOptions};
 pub use options::{
     ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,
-    UncertainClosureOptions,
+    UncertainClosureOptions, WeakClosureOptions,
 };
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;

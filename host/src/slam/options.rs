@@ -36,6 +36,8 @@ pub struct SlamOptions {
     /// Loop closure over a window as wide as the pose's uncertainty relative to a submap,
     /// where that reaches beyond [`Self::loop_closure`]'s window.
     pub uncertain_closure: UncertainClosureOptions,
+    /// Weak loop closures where the pose is uncertain beyond the window.
+    pub weak_closure: WeakClosureOptions,
     /// The alignment of every scan on the submaps near it at the end of a run.
     pub refinement: RefinementOptions,
     /// When a place later passes agree on becomes part of the fixed reference
@@ -134,6 +136,7 @@ impl Default for SlamOptions {
             },
             chain_closure: ChainClosureOptions::default(),
             uncertain_closure: UncertainClosureOptions::default(),
+            weak_closure: WeakClosureOptions::default(),
             refinement: RefinementOptions::default(),
             settle: SettleOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
@@ -392,6 +395,54 @@ impl Default for UncertainClosureOptions {
                 max_free_fraction: 0.15,
                 min_probability: 0.5,
                 ..LoopClosureOptions::default()
+            },
+        }
+    }
+}
+
+/// Weak loop closures: where the scan's pose relative to a finished submap near it is uncertain
+/// beyond the usual search window, the scan is searched in that submap at every node (not
+/// only every [`LoopClosureOptions::every_n_scans`]), and a match that puts far fewer of its
+/// end points on the submap's surfaces than the usual test asks is taken when three things
+/// hold together: the match lies within the graph's own uncertainty of that relative pose;
+/// the place is distinctive over a window as wide as that uncertainty (the uncertain closer's,
+/// [`UncertainClosureOptions`]): the match fits best there and no pose outside its basin fits
+/// nearly as well ([`LoopCloser::ambiguity_around`](super::LoopCloser::ambiguity_around));
+/// and further matches agree with it on the motion local tracking measured. A robot coming back to its start from the other side
+/// sees only part of what it mapped there, and that part is what these take.
+#[derive(Clone, Debug)]
+pub struct WeakClosureOptions {
+    /// Whether to search at all.
+    pub enabled: bool,
+    /// Submaps searched this way per scan, at most (the nearest first).
+    pub max_searches_per_scan: usize,
+    /// The largest ambiguity of a match taken, over the uncertain closer's window around it
+    /// ([`LoopCloser::ambiguity_around`](super::LoopCloser::ambiguity_around)): the best pose
+    /// outside the match's basin may fit at most this share of what the match fits.
+    pub max_ambiguity: f64,
+    /// The search and its acceptance: the usual search's raster with lower thresholds; its
+    /// `max_distance_m`, `gate_sigmas`, `every_n_scans`, `min_scans_apart` and
+    /// `max_consistent_chi2` are those of [`LoopClosureOptions`].
+    pub search: LoopClosureOptions,
+    /// How weak matches confirm each other: more agreeing than a usual closure needs.
+    pub confirmation: ConfirmationOptions,
+}
+
+impl Default for WeakClosureOptions {
+    fn default() -> Self {
+        WeakClosureOptions {
+            enabled: true,
+            max_searches_per_scan: 2,
+            max_ambiguity: 0.9,
+            search: LoopClosureOptions {
+                min_inlier_fraction: 0.35,
+                max_free_fraction: 0.2,
+                min_probability: 0.5,
+                ..LoopClosureOptions::default()
+            },
+            confirmation: ConfirmationOptions {
+                min_agreeing: 2,
+                ..ConfirmationOptions::default()
             },
         }
     }
