@@ -178,18 +178,9 @@ impl LoopCloser {
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
-        let submap_from_centre = Pose2::new(guess_in_submap.x_m, guess_in_submap.y_m, 0.0);
-        let centre_from_submap = submap_from_centre.inverse();
-        let reference_in_centre = Scan::from_points_in_robot(
-            reference_scan
-                .points_in_robot()
-                .iter()
-                .map(|p| p.map(|p| centre_from_submap.transform_point(p)))
-                .collect(),
-        );
-        let reference = self.matcher.prepare(&reference_in_centre);
+        let (reference, submap_from_centre) = self.prepare_around(reference_scan, guess_in_submap);
         let near_beams = self.near_beams(scan);
-        let guess_in_centre = centre_from_submap * guess_in_submap;
+        let guess_in_centre = submap_from_centre.inverse() * guess_in_submap;
         let found = self
             .matcher
             .match_prepared(&reference, &near_beams, guess_in_centre)
@@ -214,18 +205,9 @@ impl LoopCloser {
         scan: &Scan,
         pose_in_submap: Pose2,
     ) -> f64 {
-        let submap_from_centre = Pose2::new(pose_in_submap.x_m, pose_in_submap.y_m, 0.0);
-        let centre_from_submap = submap_from_centre.inverse();
-        let reference_in_centre = Scan::from_points_in_robot(
-            reference_scan
-                .points_in_robot()
-                .iter()
-                .map(|p| p.map(|p| centre_from_submap.transform_point(p)))
-                .collect(),
-        );
-        let reference = self.matcher.prepare(&reference_in_centre);
+        let (reference, submap_from_centre) = self.prepare_around(reference_scan, pose_in_submap);
         let near_beams = self.near_beams(scan);
-        let pose_in_centre = centre_from_submap * pose_in_submap;
+        let pose_in_centre = submap_from_centre.inverse() * pose_in_submap;
         let Ok(found) = self
             .matcher
             .match_prepared(&reference, &near_beams, pose_in_centre)
@@ -242,6 +224,28 @@ impl LoopCloser {
             return f64::INFINITY;
         }
         self.ambiguity(&reference, &near_beams, pose_in_centre, &found)
+    }
+
+    /// The submap's scans in its frame (`reference_scan`) drawn on a raster centred on
+    /// `pose_in_submap`'s position, and `submap_from_centre`, that raster's frame.
+    fn prepare_around(
+        &self,
+        reference_scan: &Scan,
+        pose_in_submap: Pose2,
+    ) -> (PreparedReference, Pose2) {
+        let submap_from_centre = Pose2::new(pose_in_submap.x_m, pose_in_submap.y_m, 0.0);
+        let centre_from_submap = submap_from_centre.inverse();
+        let reference_in_centre = Scan::from_points_in_robot(
+            reference_scan
+                .points_in_robot()
+                .iter()
+                .map(|p| p.map(|p| centre_from_submap.transform_point(p)))
+                .collect(),
+        );
+        (
+            self.matcher.prepare(&reference_in_centre),
+            submap_from_centre,
+        )
     }
 
     /// The beams of `scan` that cannot leave a raster centred on a guess anywhere in the
