@@ -408,8 +408,9 @@ impl Default for UncertainClosureOptions {
 /// the place is distinctive over a window as wide as that uncertainty (the uncertain closer's,
 /// [`UncertainClosureOptions`]): the match fits best there and no pose outside its basin fits
 /// nearly as well ([`LoopCloser::ambiguity_around`](super::LoopCloser::ambiguity_around));
-/// and further matches agree with it on the motion local tracking measured. A robot coming back to its start from the other side
-/// sees only part of what it mapped there, and that part is what these take.
+/// and further matches agree with it on the motion local tracking measured. A robot coming
+/// back to its start from the other side sees only part of what it mapped there, and that
+/// part is what these take.
 #[derive(Clone, Debug)]
 pub struct WeakClosureOptions {
     /// Whether to search at all.
