@@ -668,22 +668,29 @@ impl GraphSlam {
     ///
     /// [`LoopClosureOptions::max_consistent_chi2`]: super::LoopClosureOptions::max_consistent_chi2
     fn is_consistent_with_graph(&self, closure: &FoundClosure) -> bool {
-        let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
-        let information = closure_information(&self.options, closure.information_in_robot.as_ref());
-        let edge = Edge::new(from, to, closure.pose_in_submap, information);
-        self.chi2_against_uncertainty(&edge)
-            .is_some_and(|chi2| chi2 <= self.options.loop_closure.max_consistent_chi2)
+        self.is_within_gate(&self.closure_edge(closure))
     }
 
-    /// The χ² of `edge` (not yet in the graph) at the current poses against the sum of its
-    /// own covariance and that of its end's pose relative to its start.
-    fn chi2_against_uncertainty(&self, edge: &Edge) -> Option<f64> {
-        let from = self.graph.node(edge.from)?;
-        let to = self.graph.node(edge.to)?;
-        let relative = relative_covariance(&self.graph, edge.to, edge.from)?;
-        let combined = (relative + edge.information.try_inverse()?).try_inverse()?;
-        let error = edge.error(from.pose_in_map, to.pose_in_map);
-        Some(error.dot(&(combined * error)))
+    /// The constraint `closure` makes, without its robust kernel.
+    fn closure_edge(&self, closure: &FoundClosure) -> Edge {
+        let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
+        let information = closure_information(&self.options, closure.information_in_robot.as_ref());
+        Edge::new(from, to, closure.pose_in_submap, information)
+    }
+
+    /// Whether `edge` (not yet in the graph), at the current poses, has a χ² against the sum
+    /// of its own covariance and that of its end's pose relative to its start within
+    /// [`LoopClosureOptions::max_consistent_chi2`](super::LoopClosureOptions::max_consistent_chi2).
+    fn is_within_gate(&self, edge: &Edge) -> bool {
+        let chi2 = || {
+            let from = self.graph.node(edge.from)?;
+            let to = self.graph.node(edge.to)?;
+            let relative = relative_covariance(&self.graph, edge.to, edge.from)?;
+            let combined = (relative + edge.information.try_inverse()?).try_inverse()?;
+            let error = edge.error(from.pose_in_map, to.pose_in_map);
+            Some(error.dot(&(combined * error)))
+        };
+        chi2().is_some_and(|chi2| chi2 <= self.options.loop_closure.max_consistent_chi2)
     }
 
     /// Searches the scan of `node` over the uncertain closer's wide window in a few of
@@ -796,8 +803,7 @@ impl GraphSlam {
         index: usize,
         closure: Option<super::loop_closer::LoopClosure>,
     ) -> Option<FoundClosure> {
-        let closure = closure?;
-        let found = found_closure(node, self.finished[index].0.first_node(), &closure);
+        let found = found_closure(node, self.finished[index].0.first_node(), &closure?);
         for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
             self.add_closure(confirmed);
         }
@@ -951,10 +957,8 @@ impl GraphSlam {
     /// [`LoopClosureOptions::max_consistent_chi2`](super::LoopClosureOptions::max_consistent_chi2)),
     /// is solved once without the kernel, and keeps it from then on. Returns the edge added.
     fn add_constraint(&mut self, closure: FoundClosure) -> Option<EdgeId> {
-        let (from, to) = (NodeId(closure.submap_first_node), NodeId(closure.node));
-        let information = closure_information(&self.options, closure.information_in_robot.as_ref());
         let kernel = self.options.loop_closure_kernel;
-        let edge = Edge::new(from, to, closure.pose_in_submap, information).with_kernel(kernel);
+        let edge = self.closure_edge(&closure).with_kernel(kernel);
         let within_uncertainty = self.is_within_uncertainty(&edge);
         let Ok(id) = self.graph.add_edge(edge) else {
             return None;
@@ -986,8 +990,7 @@ impl GraphSlam {
         if edge.kernel.is_none_or(|kernel| kernel.weight(chi2) >= 1.0) {
             return false;
         }
-        self.chi2_against_uncertainty(edge)
-            .is_some_and(|chi2| chi2 <= self.options.loop_closure.max_consistent_chi2)
+        self.is_within_gate(edge)
     }
 
     fn optimize(&mut self) {
