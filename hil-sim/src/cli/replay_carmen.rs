@@ -58,6 +58,15 @@ pub struct ReplayCarmenArgs {
     /// submap took.
     #[arg(long)]
     no_chain_closure: bool,
+    /// Disable the relocalisation after scans tracking could not place (the search over
+    /// every heading on the ring of places the robot can be; see docs/method2.md).
+    #[arg(long)]
+    no_relocalisation: bool,
+    /// Disable the weak loop closures where the pose is uncertain (matches with fewer end
+    /// points on the submap, taken when distinctive, within the graph's uncertainty and
+    /// confirmed by two more).
+    #[arg(long)]
+    no_weak_closures: bool,
     /// Skip the final refinement (every scan aligned on the submaps near it once the run
     /// is over).
     #[arg(long)]
@@ -100,6 +109,8 @@ pub fn run(args: ReplayCarmenArgs) -> CliResult {
     let mut slam = host::slam::SlamOptions::default();
     slam.loop_closure.enabled = !args.no_loop_closure;
     slam.chain_closure.enabled = !args.no_chain_closure;
+    slam.relocalisation.enabled = !args.no_relocalisation;
+    slam.weak_closure.enabled = !args.no_weak_closures;
     slam.refinement.enabled = !args.no_refinement;
     slam.settle.enabled = !args.no_settle;
     slam.local.min_surface_fraction = args.min_surface_fraction;

@@ -13,7 +13,7 @@ use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
 use super::loop_closer::LoopCloser;
 use super::node_index::NodeIndex;
-use super::options::SlamOptions;
+use super::options::{LoopClosureOptions, SlamOptions};
 use super::settled_submaps::SettledSubmaps;
 use super::slam_submap::SlamSubmap;
 use super::slam_timings::{SlamTimings, seconds_since};
@@ -51,6 +51,11 @@ pub struct SlamStats {
     pub weak_closure_searches: usize,
     /// Weak matches that entered the graph (counted in `loop_closures` too).
     pub weak_closures: usize,
+    /// Of the loop-closure searches, those over every heading after tracking lost its way
+    /// ([`super::RelocalisationOptions`]).
+    pub relocalisation_searches: usize,
+    /// Their matches that entered the graph, confirmed (counted in `loop_closures` too).
+    pub relocalisations: usize,
     /// Loop-closure constraints added (chain closures included).
     pub loop_closures: usize,
     /// Loop closures found and rejected: no second one agreed with them on the motion local
@@ -163,15 +168,25 @@ pub struct GraphSlam {
     finished: Vec<(SlamSubmap, PreparedReference)>,
     /// Searches a submap over the wide window of an uncertain pose.
     uncertain_closer: LoopCloser,
-    /// The closures `uncertain_closer` found: while one waits for its confirmation, the scans
+    /// Searches a submap over every heading after tracking lost its way
+    /// ([`super::RelocalisationOptions`]).
+    relocaliser: LoopCloser,
+    /// The same over [`super::RelocalisationOptions::narrow_turn_rad`], where the ring of
+    /// places the robot can be on gives the heading.
+    narrow_relocaliser: LoopCloser,
+    /// The closures `uncertain_closer` and `relocaliser` found: while one waits for its confirmation, the scans
     /// after it are searched where it predicts them.
     followed_closures: Vec<FollowedClosure>,
     /// The last node local tracking could not place, where it started afresh.
     last_lost_node: Option<usize>,
+    /// The last stretch of lost scans, while its heading is searched for.
+    lost_heading: Option<LostHeading>,
     /// For every finished submap, the node last searched in it by `closer`.
     last_search: Vec<usize>,
     /// For every finished submap, the node last searched in it by `uncertain_closer`.
     last_uncertain_search: Vec<usize>,
+    /// For every finished submap, the node last searched in it by the relocalisers.
+    last_relocalisation_search: Vec<usize>,
     /// Searches a submap for a weak match ([`super::WeakClosureOptions`]).
     weak_closer: LoopCloser,
     /// Weak matches waiting for those that agree with them.
@@ -225,10 +240,17 @@ impl GraphSlam {
             scan_of_node: Vec::new(),
             finished: Vec::new(),
             uncertain_closer: LoopCloser::new(options.uncertain_closure.search.clone())?,
+            relocaliser: LoopCloser::new(options.relocalisation.search.clone())?,
+            narrow_relocaliser: LoopCloser::new(LoopClosureOptions {
+                search_window_rad: options.relocalisation.narrow_turn_rad,
+                ..options.relocalisation.search.clone()
+            })?,
             followed_closures: Vec::new(),
             last_search: Vec::new(),
             last_uncertain_search: Vec::new(),
+            last_relocalisation_search: Vec::new(),
             last_lost_node: None,
+            lost_heading: None,
             weak_closer: LoopCloser::new(options.weak_closure.search.clone())?,
             weak_confirmation: ClosureConfirmation::new(options.weak_closure.confirmation),
             weak_targets: Vec::new(),
@@ -328,6 +350,22 @@ impl GraphSlam {
         self.poses_in_local.push(tracked.pose_in_local);
         if tracked.lost {
             self.last_lost_node = Some(node);
+            let [sigma_m, _] = tracked.prior_sigma;
+            let gap = self.options.relocalisation.stretch_gap_nodes;
+            match &mut self.lost_heading {
+                Some(lost) if !lost.found && lost.last_lost + gap >= node => {
+                    lost.last_lost = node;
+                    lost.variance_m2 += sigma_m * sigma_m;
+                }
+                _ => {
+                    self.lost_heading = Some(LostHeading {
+                        anchor: node.saturating_sub(1),
+                        last_lost: node,
+                        variance_m2: sigma_m * sigma_m,
+                        found: false,
+                    });
+                }
+            }
         }
         for mut submap in tracked.finished_submaps {
             self.stats.submaps += 1;
@@ -343,6 +381,7 @@ impl GraphSlam {
             self.finished.push((submap, reference));
             self.last_search.push(0);
             self.last_uncertain_search.push(0);
+            self.last_relocalisation_search.push(0);
         }
         self.timings.tracking_s += seconds_since(started);
         let started = Instant::now();
@@ -575,6 +614,7 @@ impl GraphSlam {
                 submap: index,
                 guess_in_submap,
                 reach_m,
+                reach_rad,
                 covariance,
             };
             let fits_window =
@@ -695,13 +735,18 @@ impl GraphSlam {
 
     /// Searches the scan of `node` over the uncertain closer's wide window in a few of
     /// `beyond_window` (those searched that way longest ago first, then the nearest), and
-    /// adds what is confirmed ([`super::UncertainClosureOptions`]).
+    /// adds what is confirmed ([`super::UncertainClosureOptions`]); shortly after a lost
+    /// scan, over every heading in those near it whose heading is as uncertain
+    /// ([`Self::relocalise`]).
     fn close_loops_beyond_window(
         &mut self,
         node: usize,
         scan: &Scan,
         mut beyond_window: Vec<SubmapGuess>,
     ) {
+        if self.relocalise(node, scan, &beyond_window) {
+            return;
+        }
         beyond_window.sort_by(|a, b| {
             let last = |guess: &SubmapGuess| self.last_uncertain_search[guess.submap];
             last(a)
@@ -738,9 +783,109 @@ impl GraphSlam {
                 self.followed_closures.push(FollowedClosure {
                     closure,
                     found: Vec::new(),
+                    relocalised: false,
                 });
             }
         }
+    }
+
+    /// Relocalises the scan of `node` while the heading lost in the last stretch of lost
+    /// scans ([`LostHeading`]) is not found again, for at most
+    /// [`RelocalisationOptions::after_lost_nodes`] nodes after it: searches the scan over
+    /// every heading in a few of the submaps of `beyond_window` whose heading relative to it
+    /// is uncertain beyond the uncertain closer's turn and whose scans were taken near the
+    /// ring the robot can be on (those searched longest ago first, then the nearest to the
+    /// ring), and follows a match that lies on the ring and is distinctive across the window.
+    /// Whether it searched.
+    ///
+    /// [`RelocalisationOptions::after_lost_nodes`]: super::RelocalisationOptions::after_lost_nodes
+    fn relocalise(&mut self, node: usize, scan: &Scan, beyond_window: &[SubmapGuess]) -> bool {
+        let options = &self.options.relocalisation;
+        let Some(lost) = self.lost_heading.filter(|lost| {
+            options.enabled && !lost.found && node <= lost.last_lost + options.after_lost_nodes
+        }) else {
+            return false;
+        };
+        let (Some(anchor_in_map), Some(pose_in_map)) = (
+            self.node_pose_in_map(lost.anchor),
+            self.node_pose_in_map(node),
+        ) else {
+            return false;
+        };
+        let ring = Ring {
+            anchor_in_map,
+            estimate_in_map: pose_in_map,
+            slop_m: options.gate_sigmas * lost.variance_m2.sqrt()
+                + options.drift_fraction * distance_m(anchor_in_map, pose_in_map),
+            drift_rad: options.drift_rad,
+        };
+        let turn_rad = self.options.uncertain_closure.search.search_window_rad;
+        let mut candidates: Vec<(usize, f64, usize, Pose2)> = beyond_window
+            .iter()
+            .filter(|guess| guess.reach_rad > turn_rad)
+            .filter_map(|guess| {
+                let submap = &self.finished[guess.submap].0;
+                let submap_in_map = self.node_pose_in_map(submap.first_node())?;
+                // The submap's scan pose nearest the ring, the search's centre.
+                let (centre, off_ring_m) = submap
+                    .scan_poses_in_submap()
+                    .map(|pose| (pose, ring.off_m(submap_in_map * pose)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))?;
+                // Headed as the estimate turned about the anchor to that place.
+                let heading_in_map = ring.heading_at(submap_in_map * centre);
+                let centre = Pose2::new(
+                    centre.x_m,
+                    centre.y_m,
+                    heading_in_map - submap_in_map.theta_rad,
+                );
+                (off_ring_m <= ring.slop_m + options.max_distance_m).then_some((
+                    self.last_relocalisation_search[guess.submap],
+                    off_ring_m,
+                    guess.submap,
+                    centre,
+                ))
+            })
+            .collect();
+        if candidates.is_empty() {
+            return false;
+        }
+        candidates.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let budget = self.options.uncertain_closure.max_searches_per_scan;
+        // Within the window the ring spans a turn of this much either way: where that is
+        // within the narrow search's turn, the heading the ring gives is searched as far.
+        let window_m = self.options.relocalisation.search.search_window_m;
+        let narrow = ring.turn_within_rad(window_m) <= self.options.relocalisation.narrow_turn_rad;
+        for (_, _, index, centre_in_submap) in candidates.into_iter().take(budget) {
+            self.last_relocalisation_search[index] = node;
+            self.stats.loop_closure_searches += 1;
+            self.stats.relocalisation_searches += 1;
+            let submap = &self.finished[index].0;
+            let Some(submap_in_map) = self.node_pose_in_map(submap.first_node()) else {
+                continue;
+            };
+            let reference_scan = submap.reference_scan_from(|n| self.node_scan(n, scan));
+            let closer = if narrow {
+                &self.narrow_relocaliser
+            } else {
+                &self.relocaliser
+            };
+            let closure = closer
+                .search_around_guess(submap, &reference_scan, scan, centre_in_submap)
+                .filter(|closure| {
+                    let on_ring = ring.holds(submap_in_map * closure.pose_in_submap);
+                    let ambiguity =
+                        || closer.ambiguity_around(&reference_scan, scan, closure.pose_in_submap);
+                    on_ring && ambiguity() <= self.options.relocalisation.max_ambiguity
+                });
+            if let Some(closure) = self.offer_closure(node, index, closure) {
+                self.followed_closures.push(FollowedClosure {
+                    closure,
+                    found: Vec::new(),
+                    relocalised: true,
+                });
+            }
+        }
+        true
     }
 
     /// Searches the scan of `node` where each closure the uncertain closer found and that
@@ -767,28 +912,43 @@ impl GraphSlam {
             else {
                 continue;
             };
-            self.stats.loop_closure_searches += 1;
-            let Some(closure) =
-                self.closer
-                    .search_from(&self.finished[index].0, scan, guess_in_submap)
-            else {
-                continue;
-            };
-            let Some(followed) = self
+            let Some(position) = self
                 .followed_closures
-                .iter_mut()
-                .find(|f| f.closure == waiting)
+                .iter()
+                .position(|f| f.closure == waiting)
             else {
                 continue;
             };
+            self.stats.loop_closure_searches += 1;
+            let closer = if self.followed_closures[position].relocalised {
+                &self.relocaliser
+            } else {
+                &self.closer
+            };
+            let Some(closure) = closer.search_from(&self.finished[index].0, scan, guess_in_submap)
+            else {
+                continue;
+            };
+            let followed = &mut self.followed_closures[position];
             followed
                 .found
                 .push(found_closure(node, frame_node, &closure));
             if followed.found.len() >= FOLLOWED_MATCHES {
+                let relocalised = followed.relocalised;
                 let found = std::mem::take(&mut followed.found);
                 for found in found {
                     for confirmed in self.confirmation.offer(found, &self.poses_in_local) {
-                        self.add_closure(confirmed);
+                        if relocalised && confirmed.submap_first_node == frame_node {
+                            if confirmed == waiting {
+                                self.stats.relocalisations += 1;
+                                if let Some(lost) = &mut self.lost_heading {
+                                    lost.found = true;
+                                }
+                            }
+                            self.add_relocalisation(confirmed);
+                        } else {
+                            self.add_closure(confirmed);
+                        }
                     }
                 }
             }
@@ -859,7 +1019,7 @@ impl GraphSlam {
         );
         for confirmed in confirmed {
             let frame_node = confirmed.submap_first_node;
-            if let Some(id) = self.add_constraint(confirmed) {
+            if let Some(id) = self.add_constraint(confirmed, false) {
                 self.settled.closure_on_node(frame_node, id);
                 self.stats.loop_closures += 1;
                 self.stats.chain_closures += 1;
@@ -930,7 +1090,7 @@ impl GraphSlam {
             &self.options,
         );
         for closure in closures {
-            if self.add_constraint(closure).is_some() {
+            if self.add_constraint(closure, false).is_some() {
                 self.stats.refinement_constraints += 1;
             }
         }
@@ -940,8 +1100,20 @@ impl GraphSlam {
     }
 
     fn add_closure(&mut self, closure: FoundClosure) {
+        self.add_closure_held(closure, false);
+    }
+
+    /// Adds a relocalisation's closure: it lies where the robot can be after its heading was
+    /// lost (a ring the graph's linearised covariance cannot hold), so it is solved once
+    /// without the kernel whatever the gate says.
+    fn add_relocalisation(&mut self, closure: FoundClosure) {
+        self.add_closure_held(closure, true);
+    }
+
+    /// [`Self::add_constraint`], counted and told to its submap.
+    fn add_closure_held(&mut self, closure: FoundClosure, held: bool) {
         let submap_first_node = closure.submap_first_node;
-        if let Some(id) = self.add_constraint(closure) {
+        if let Some(id) = self.add_constraint(closure, held) {
             self.stats.loop_closures += 1;
             self.settled.closure_on_submap(submap_first_node, id);
         }
@@ -955,11 +1127,16 @@ impl GraphSlam {
     /// kernel would weaken, but whose error is within the uncertainty of the scan's pose
     /// relative to the submap (its χ² against the sum of both covariances within
     /// [`LoopClosureOptions::max_consistent_chi2`](super::LoopClosureOptions::max_consistent_chi2)),
-    /// is solved once without the kernel, and keeps it from then on. Returns the edge added.
-    fn add_constraint(&mut self, closure: FoundClosure) -> Option<EdgeId> {
+    /// is solved once without the kernel, and keeps it from then on; so is one `held` within
+    /// the uncertainty by another test. Returns the edge added.
+    fn add_constraint(&mut self, closure: FoundClosure, held: bool) -> Option<EdgeId> {
         let kernel = self.options.loop_closure_kernel;
         let edge = self.closure_edge(&closure).with_kernel(kernel);
-        let within_uncertainty = self.is_within_uncertainty(&edge);
+        let within_uncertainty = if held {
+            self.kernel_weakens(&edge)
+        } else {
+            self.is_within_uncertainty(&edge)
+        };
         let Ok(id) = self.graph.add_edge(edge) else {
             return None;
         };
@@ -983,14 +1160,16 @@ impl GraphSlam {
     /// Whether the kernel would weaken `edge` (not yet in the graph) at the current poses,
     /// while its error is within the uncertainty of its end's pose relative to its start.
     fn is_within_uncertainty(&self, edge: &Edge) -> bool {
+        self.kernel_weakens(edge) && self.is_within_gate(edge)
+    }
+
+    /// Whether `edge`'s robust kernel would weaken it at the current poses.
+    fn kernel_weakens(&self, edge: &Edge) -> bool {
         let (Some(from), Some(to)) = (self.graph.node(edge.from), self.graph.node(edge.to)) else {
             return false;
         };
         let chi2 = edge.chi2(from.pose_in_map, to.pose_in_map);
-        if edge.kernel.is_none_or(|kernel| kernel.weight(chi2) >= 1.0) {
-            return false;
-        }
-        self.is_within_gate(edge)
+        edge.kernel.is_some_and(|kernel| kernel.weight(chi2) < 1.0)
     }
 
     fn optimize(&mut self) {
@@ -1054,6 +1233,97 @@ const FOLLOWED_MATCHES: usize = 2;
 struct FollowedClosure {
     closure: FoundClosure,
     found: Vec<FoundClosure>,
+    /// Found by the relocaliser: the scans after it are tested as its matches are.
+    relocalised: bool,
+}
+
+/// A stretch of scans local tracking could not place, and what it leaves unknown.
+///
+/// A lost scan keeps the motion prior's prediction; over a turn on the spot the heading is
+/// then anyone's guess while the position is off by about the prior's translation for each
+/// lost scan. The scans tracked since are right relative to each other, so the robot lies
+/// on a ring around the last node placed before the stretch (its `anchor`), as far from it
+/// as the estimate is, turned by the unknown heading error about it.
+#[derive(Clone, Copy, Debug)]
+struct LostHeading {
+    /// The last node placed before the stretch.
+    anchor: usize,
+    /// The stretch's last lost node.
+    last_lost: usize,
+    /// The variance of the position the lost scans leave, m² (the prior's, summed).
+    variance_m2: f64,
+    /// Whether a relocalisation was confirmed since.
+    found: bool,
+}
+
+/// Where the robot can be after a [`LostHeading`]: its estimate turned about the anchor by
+/// the unknown heading error, its position within `slop_m` and its heading within
+/// `drift_rad` (and what `slop_m` makes of a turn at that distance) of that.
+#[derive(Clone, Copy, Debug)]
+struct Ring {
+    anchor_in_map: Pose2,
+    estimate_in_map: Pose2,
+    slop_m: f64,
+    drift_rad: f64,
+}
+
+impl Ring {
+    /// The ring's radius: the estimate's distance from the anchor, metres.
+    fn radius_m(&self) -> f64 {
+        distance_m(self.anchor_in_map, self.estimate_in_map)
+    }
+
+    /// The heading of the estimate turned about the anchor to the bearing of
+    /// `pose_in_map`'s position, radians.
+    fn heading_at(&self, pose_in_map: Pose2) -> f64 {
+        self.estimate_in_map.theta_rad + self.turn_to(pose_in_map)
+    }
+
+    /// The turn about the anchor from the estimate's bearing to `pose_in_map`'s, radians.
+    fn turn_to(&self, pose_in_map: Pose2) -> f64 {
+        let bearing = |pose: Pose2| {
+            (pose.y_m - self.anchor_in_map.y_m).atan2(pose.x_m - self.anchor_in_map.x_m)
+        };
+        crate::geometry::wrap_angle_rad(bearing(pose_in_map) - bearing(self.estimate_in_map))
+    }
+
+    /// How far either way the heading turns along the part of the ring a square window of
+    /// half width `window_m` holds, radians (π where the window may hold the whole ring).
+    fn turn_within_rad(&self, window_m: f64) -> f64 {
+        let reach_m = window_m * std::f64::consts::SQRT_2 + self.slop_m;
+        let radius_m = self.radius_m();
+        if reach_m >= radius_m {
+            return std::f64::consts::PI;
+        }
+        (reach_m / radius_m).asin() + self.drift_rad
+    }
+
+    /// How far `pose_in_map`'s position lies off the circle, metres.
+    fn off_m(&self, pose_in_map: Pose2) -> f64 {
+        (distance_m(self.anchor_in_map, pose_in_map) - self.radius_m()).abs()
+    }
+
+    /// Whether `pose_in_map` is the estimate turned about the anchor: its position on the
+    /// ring, and its heading turned by as much as its position (where the ring is wide
+    /// enough for that angle to be known).
+    fn holds(&self, pose_in_map: Pose2) -> bool {
+        if self.off_m(pose_in_map) > self.slop_m {
+            return false;
+        }
+        let radius_m = self.radius_m();
+        if radius_m <= self.slop_m {
+            return true;
+        }
+        let disagreement =
+            crate::geometry::wrap_angle_rad(pose_in_map.theta_rad - self.heading_at(pose_in_map))
+                .abs();
+        disagreement <= (self.slop_m / radius_m).asin() + self.drift_rad
+    }
+}
+
+/// The distance between two poses' positions, metres.
+fn distance_m(a: Pose2, b: Pose2) -> f64 {
+    (a.x_m - b.x_m).hypot(a.y_m - b.y_m)
 }
 
 /// A finished submap the scan may be found in, and where.
@@ -1070,6 +1340,8 @@ struct SubmapGuess {
     ///
     /// [`LoopClosureOptions::gate_sigmas`]: super::LoopClosureOptions::gate_sigmas
     reach_m: f64,
+    /// How far it reaches in heading, radians; 0 where not known.
+    reach_rad: f64,
     /// The covariance of that pose, in the scan's frame; `None` where not known.
     covariance: Option<Matrix3<f64>>,
 }
@@ -1338,6 +1610,106 @@ mod tests {
             slam.add_scan(k as f64 * 0.1, scan, None);
         }
         (slam, truth, last)
+    }
+
+    /// Back on the ring at its start, the robot turns round on the spot and drives back the
+    /// way it came: the scans of the turn show nothing (lost), and tracking keeps the last
+    /// motion for them. The SLAM's poses after the turn, and the truth.
+    fn turn_round_unseen(options: SlamOptions) -> (SlamResult, Vec<Pose2>) {
+        let walls = ring_walls();
+        let mut truth = ring_trajectory(1.1);
+        let turned_at = *truth.last().expect("poses");
+        let turn_steps = 6;
+        for step in 1..=turn_steps {
+            let turn = std::f64::consts::PI * f64::from(step) / f64::from(turn_steps);
+            truth.push(turned_at * Pose2::new(0.0, 0.0, turn));
+        }
+        let lost_from = truth.len() - turn_steps as usize;
+        let back = ring_trajectory(1.1);
+        let turned_round = Pose2::new(0.0, 0.0, std::f64::consts::PI);
+        truth.extend(
+            back.iter()
+                .rev()
+                .skip(1)
+                .take(60)
+                .map(|&p| p * turned_round),
+        );
+        let nothing = Scan::from_points_in_robot(vec![None; 181]);
+        let mut slam = GraphSlam::new(options).unwrap();
+        for (k, &pose) in truth.iter().enumerate() {
+            let scan = if (lost_from..lost_from + turn_steps as usize).contains(&k) {
+                nothing.clone()
+            } else {
+                cast_front_scan(&walls, pose)
+            };
+            slam.add_scan(k as f64 * 0.1, &scan, None);
+        }
+        (slam.finish(), truth)
+    }
+
+    #[test]
+    fn a_heading_lost_on_a_turn_is_found_again_on_the_ring_it_can_be_on() {
+        let (found, truth) = turn_round_unseen(SlamOptions::default());
+        assert!(found.stats.lost_scans >= 6, "{:?}", found.stats);
+        assert!(found.stats.relocalisations >= 1, "{:?}", found.stats);
+        // The lost scans' poses are what the graph makes of the prior; the others are seen.
+        let seen = |poses: &[Pose2], lost: &[bool]| -> Vec<(Pose2, Pose2)> {
+            poses
+                .iter()
+                .zip(&truth)
+                .zip(lost)
+                .filter(|(_, lost)| !**lost)
+                .map(|((&estimate, &truth), _)| (estimate, truth))
+                .collect()
+        };
+        let (estimates, truths): (Vec<Pose2>, Vec<Pose2>) =
+            seen(&found.poses_in_map, &found.lost).into_iter().unzip();
+        let error_m = worst_error_m(&estimates, &truths);
+        assert!(error_m < 0.05, "worst position error {error_m} m");
+        // Without relocalisation the drive back is mapped the wrong way.
+        let mut options = SlamOptions::default();
+        options.relocalisation.enabled = false;
+        let (without, _) = turn_round_unseen(options);
+        assert_eq!(without.stats.relocalisation_searches, 0);
+        let error_m = worst_error_m(&without.poses_in_map, &truth);
+        assert!(error_m > 1.0, "worst position error {error_m} m");
+    }
+
+    #[test]
+    fn a_ring_holds_the_estimate_turned_about_its_anchor_and_nothing_else() {
+        let anchor_in_map = Pose2::new(2.0, 1.0, 0.3);
+        // 20 m ahead of the anchor, as tracking has it since the lost stretch.
+        let estimate_in_map = anchor_in_map * Pose2::new(20.0, 0.0, 0.0);
+        let ring = Ring {
+            anchor_in_map,
+            estimate_in_map,
+            slop_m: 1.0,
+            drift_rad: 2f64.to_radians(),
+        };
+        let turned = |turn_rad: f64| {
+            anchor_in_map
+                * Pose2::new(0.0, 0.0, turn_rad)
+                * anchor_in_map.inverse()
+                * estimate_in_map
+        };
+        for turn_deg in [-170.0, -70.0, 0.0, 45.0, 120.0] {
+            let pose = turned(f64::to_radians(turn_deg));
+            assert!(ring.holds(pose), "{turn_deg}°");
+            // The same place with its heading not turned with it.
+            let unturned = Pose2::new(pose.x_m, pose.y_m, estimate_in_map.theta_rad);
+            assert_eq!(ring.holds(unturned), turn_deg == 0.0, "{turn_deg}°");
+        }
+        // Off the ring by more than its slop.
+        assert!(!ring.holds(turned(1.0) * Pose2::new(1.5, 0.0, 0.0)));
+        assert!(ring.holds(turned(1.0) * Pose2::new(0.5, 0.0, 0.0)));
+        // A 16 m window on a 20 m ring may hold any heading; on a 200 m ring, a few degrees.
+        assert_eq!(ring.turn_within_rad(16.0), std::f64::consts::PI);
+        let far = Ring {
+            estimate_in_map: anchor_in_map * Pose2::new(200.0, 0.0, 0.0),
+            ..ring
+        };
+        let turn_deg = far.turn_within_rad(16.0).to_degrees();
+        assert!((8.0..10.0).contains(&turn_deg), "{turn_deg}°");
     }
 
     #[test]

@@ -21,7 +21,9 @@
 //!   few submaps per scan are searched over a far wider one ([`UncertainClosureOptions`]), and
 //!   every scan is searched in the nearest of them for weak matches, fewer of whose end points
 //!   lie on the submap's surfaces, taken where they lie within that uncertainty, the place is
-//!   distinctive across it and two more agree ([`WeakClosureOptions`]). A scan
+//!   distinctive across it and two more agree ([`WeakClosureOptions`]). After a stretch
+//!   local tracking could not place, a scan whose heading is that uncertain is searched in
+//!   the submaps near it over every heading ([`RelocalisationOptions`]). A scan
 //!   no submap took is searched once more, over ±10 m, in a chain of the earlier scans
 //!   around the one nearest to it ([`ChainClosureOptions`]): a long loop drifts further than
 //!   the submaps' window, and a stretch that local tracking got wrong blurs a whole submap.
@@ -72,8 +74,8 @@ pub use loop_closer::{AlignedCandidate, LoopCloser, LoopClosure};
 pub use motion_filter::{MotionFilter, MotionFilterOptions};
 pub use motion_prior::{MotionPrior, MotionPriorOptions};
 pub use options::{
-    ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions, SlamOptions,
-    UncertainClosureOptions, WeakClosureOptions,
+    ChainClosureOptions, LocalTrackingOptions, LoopClosureOptions, RefinementOptions,
+    RelocalisationOptions, SlamOptions, UncertainClosureOptions, WeakClosureOptions,
 };
 pub use point_map::{PointMap, PointMapOptions};
 pub use recent_scans::RecentScans;

@@ -38,6 +38,8 @@ pub struct SlamOptions {
     pub uncertain_closure: UncertainClosureOptions,
     /// Weak loop closures where the pose is uncertain beyond the window.
     pub weak_closure: WeakClosureOptions,
+    /// The search over every heading after local tracking lost its way.
+    pub relocalisation: RelocalisationOptions,
     /// The alignment of every scan on the submaps near it at the end of a run.
     pub refinement: RefinementOptions,
     /// When a place later passes agree on becomes part of the fixed reference
@@ -137,6 +139,7 @@ impl Default for SlamOptions {
             chain_closure: ChainClosureOptions::default(),
             uncertain_closure: UncertainClosureOptions::default(),
             weak_closure: WeakClosureOptions::default(),
+            relocalisation: RelocalisationOptions::default(),
             refinement: RefinementOptions::default(),
             settle: SettleOptions::default(),
             odometry_sigma: [0.02, 0.5f64.to_radians()],
@@ -444,6 +447,73 @@ impl Default for WeakClosureOptions {
             confirmation: ConfirmationOptions {
                 min_agreeing: 2,
                 ..ConfirmationOptions::default()
+            },
+        }
+    }
+}
+
+/// Relocalisation after local tracking lost its way: for a while after a scan tracking could
+/// not place, a scan whose heading relative to a finished submap it has come back near is
+/// uncertain beyond [`UncertainClosureOptions`]' turn is searched there over every heading.
+///
+/// A turn on the spot in open space loses the heading, not the position: the lost scans'
+/// constraints carry the motion prior's 0.5 m, so the robot is still within metres of where
+/// it is believed, but its heading is anyone's guess. The window (the uncertain closer's
+/// ±16 m, every heading) then covers all the robot's pose can be, so a look-alike within
+/// it shows in the ratio test: the match must fit best there and no pose outside its basin
+/// may fit more than [`Self::max_ambiguity`] of what it fits
+/// ([`LoopCloser::ambiguity_around`](super::LoopCloser::ambiguity_around)). Outdoors a place
+/// seen again from elsewhere puts far fewer end points on the submap's surfaces than
+/// indoors, so the match passes the weak matches' test ([`WeakClosureOptions`]), and two
+/// scans after it must be found where it predicts them before it enters the graph.
+#[derive(Clone, Debug)]
+pub struct RelocalisationOptions {
+    /// Whether to search at all.
+    pub enabled: bool,
+    /// Searched scans this many nodes after a lost scan at most are relocalised.
+    pub after_lost_nodes: usize,
+    /// Lost scans at most this many nodes apart belong to one stretch.
+    pub stretch_gap_nodes: usize,
+    /// How many standard deviations of the position the lost scans leave the ring's width
+    /// spans.
+    pub gate_sigmas: f64,
+    /// What local tracking may have drifted since the stretch, as a share of the distance
+    /// from the last node placed before it.
+    pub drift_fraction: f64,
+    /// What local tracking may have drifted in heading since the stretch, radians.
+    pub drift_rad: f64,
+    /// Submaps none of whose scans were taken within this of the ring are not tried, metres.
+    pub max_distance_m: f64,
+    /// The largest ambiguity of a match taken, over the search's window around it.
+    pub max_ambiguity: f64,
+    /// Where the part of the ring the window holds turns the heading by at most this either
+    /// way, the search tries only those headings, radians.
+    pub narrow_turn_rad: f64,
+    /// The search and its acceptance; its `enabled`, `every_n_scans`, `min_scans_apart`,
+    /// `max_distance_m` and `max_searches_per_scan` are not used (the budget is
+    /// [`UncertainClosureOptions::max_searches_per_scan`]).
+    pub search: LoopClosureOptions,
+}
+
+impl Default for RelocalisationOptions {
+    fn default() -> Self {
+        let weak = WeakClosureOptions::default().search;
+        RelocalisationOptions {
+            enabled: true,
+            after_lost_nodes: 30,
+            stretch_gap_nodes: 5,
+            gate_sigmas: 3.0,
+            drift_fraction: 0.05,
+            drift_rad: 5f64.to_radians(),
+            max_distance_m: 10.0,
+            max_ambiguity: 0.9,
+            narrow_turn_rad: 45f64.to_radians(),
+            search: LoopClosureOptions {
+                search_window_rad: std::f64::consts::PI,
+                min_inlier_fraction: weak.min_inlier_fraction,
+                max_free_fraction: weak.max_free_fraction,
+                min_probability: weak.min_probability,
+                ..UncertainClosureOptions::default().search
             },
         }
     }
