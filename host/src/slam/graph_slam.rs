@@ -850,7 +850,7 @@ impl GraphSlam {
             return false;
         }
         candidates.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
-        let budget = self.options.uncertain_closure.max_searches_per_scan;
+        let budget = self.options.relocalisation.max_searches_per_scan;
         // Within the window the ring spans a turn of this much either way: where that is
         // within the narrow search's turn, the heading the ring gives is searched as far.
         let window_m = self.options.relocalisation.search.search_window_m;

@@ -472,6 +472,8 @@ pub struct RelocalisationOptions {
     pub enabled: bool,
     /// Searched scans this many nodes after a lost scan at most are relocalised.
     pub after_lost_nodes: usize,
+    /// Submaps searched this way per searched scan, at most.
+    pub max_searches_per_scan: usize,
     /// Lost scans at most this many nodes apart belong to one stretch.
     pub stretch_gap_nodes: usize,
     /// How many standard deviations of the position the lost scans leave the ring's width
@@ -490,8 +492,7 @@ pub struct RelocalisationOptions {
     /// way, the search tries only those headings, radians.
     pub narrow_turn_rad: f64,
     /// The search and its acceptance; its `enabled`, `every_n_scans`, `min_scans_apart`,
-    /// `max_distance_m` and `max_searches_per_scan` are not used (the budget is
-    /// [`UncertainClosureOptions::max_searches_per_scan`]).
+    /// `max_distance_m` and `max_searches_per_scan` are not used.
     pub search: LoopClosureOptions,
 }
 
@@ -501,6 +502,7 @@ impl Default for RelocalisationOptions {
         RelocalisationOptions {
             enabled: true,
             after_lost_nodes: 30,
+            max_searches_per_scan: 2,
             stretch_gap_nodes: 5,
             gate_sigmas: 3.0,
             drift_fraction: 0.05,
