@@ -12,7 +12,8 @@ use host::slam::SlamOptions;
 
 /// Runs `benchmark/LOG.clf` (its first `first_scans`) without odometry, against
 /// `benchmark/LOG.reference.tsv`, with the default options: the summary and the output
-/// directory. `None` when the datasets are absent (see [`datasets::require`]).
+/// directory (named after `test`). `None` when the datasets are absent (see
+/// [`datasets::require`]).
 fn replay(
     log: &str,
     first_scans: Option<usize>,
@@ -20,10 +21,14 @@ fn replay(
 ) -> Option<(SlamReplaySummary, PathBuf)> {
     let clf = datasets::require(&format!("benchmark/{log}.clf"), test)?;
     let reference = datasets::require(&format!("benchmark/{log}.reference.tsv"), test)?;
-    let options = SlamReplayOptions {
+    let mut options = SlamReplayOptions {
         reference: Some(reference),
         ..options_without_odometry(log, clf, first_scans)
     };
+    // Tests of one log run at once: each writes where no other removes.
+    options
+        .out
+        .set_file_name(format!("carmen-{test}-{}", std::process::id()));
     Some((replay_carmen_slam(&options).expect("replay"), options.out))
 }
 
