@@ -187,6 +187,8 @@ pub struct GraphSlam {
     last_uncertain_search: Vec<usize>,
     /// For every finished submap, the node last searched in it by the relocalisers.
     last_relocalisation_search: Vec<usize>,
+    /// How often each finished submap was searched by the relocalisation.
+    relocalisation_visits: Vec<usize>,
     /// Searches a submap for a weak match ([`super::WeakClosureOptions`]).
     weak_closer: LoopCloser,
     /// Weak matches waiting for those that agree with them.
@@ -249,6 +251,7 @@ impl GraphSlam {
             last_search: Vec::new(),
             last_uncertain_search: Vec::new(),
             last_relocalisation_search: Vec::new(),
+            relocalisation_visits: Vec::new(),
             last_lost_node: None,
             lost_heading: None,
             weak_closer: LoopCloser::new(options.weak_closure.search.clone())?,
@@ -382,6 +385,7 @@ impl GraphSlam {
             self.last_search.push(0);
             self.last_uncertain_search.push(0);
             self.last_relocalisation_search.push(0);
+            self.relocalisation_visits.push(0);
         }
         self.timings.tracking_s += seconds_since(started);
         let started = Instant::now();
@@ -744,9 +748,7 @@ impl GraphSlam {
         scan: &Scan,
         mut beyond_window: Vec<SubmapGuess>,
     ) {
-        if self.relocalise(node, scan, &beyond_window) {
-            return;
-        }
+        self.relocalise(node, scan, &beyond_window);
         beyond_window.sort_by(|a, b| {
             let last = |guess: &SubmapGuess| self.last_uncertain_search[guess.submap];
             last(a)
@@ -796,21 +798,23 @@ impl GraphSlam {
     /// is uncertain beyond the uncertain closer's turn and whose scans were taken near the
     /// ring the robot can be on (those searched longest ago first, then the nearest to the
     /// ring), and follows a match that lies on the ring and is distinctive across the window.
-    /// Whether it searched.
+    /// Each search is centred on one of the places the ring is cut into
+    /// ([`Ring::places`]) near the submap's scans, the next one at the submap's next search,
+    /// so that searches of a submap the ring passes along cover all of that stretch of it.
     ///
     /// [`RelocalisationOptions::after_lost_nodes`]: super::RelocalisationOptions::after_lost_nodes
-    fn relocalise(&mut self, node: usize, scan: &Scan, beyond_window: &[SubmapGuess]) -> bool {
+    fn relocalise(&mut self, node: usize, scan: &Scan, beyond_window: &[SubmapGuess]) {
         let options = &self.options.relocalisation;
         let Some(lost) = self.lost_heading.filter(|lost| {
             options.enabled && !lost.found && node <= lost.last_lost + options.after_lost_nodes
         }) else {
-            return false;
+            return;
         };
         let (Some(anchor_in_map), Some(pose_in_map)) = (
             self.node_pose_in_map(lost.anchor),
             self.node_pose_in_map(node),
         ) else {
-            return false;
+            return;
         };
         let ring = Ring {
             anchor_in_map,
@@ -820,43 +824,49 @@ impl GraphSlam {
             drift_rad: options.drift_rad,
         };
         let turn_rad = self.options.uncertain_closure.search.search_window_rad;
+        let window_m = self.options.relocalisation.search.search_window_m;
+        let places = ring.places(window_m);
         let mut candidates: Vec<(usize, f64, usize, Pose2)> = beyond_window
             .iter()
             .filter(|guess| guess.reach_rad > turn_rad)
             .filter_map(|guess| {
                 let submap = &self.finished[guess.submap].0;
                 let submap_in_map = self.node_pose_in_map(submap.first_node())?;
-                // The submap's scan pose nearest the ring, the search's centre.
-                let (centre, off_ring_m) = submap
-                    .scan_poses_in_submap()
-                    .map(|pose| (pose, ring.off_m(submap_in_map * pose)))
-                    .min_by(|a, b| a.1.total_cmp(&b.1))?;
-                // Headed as the estimate turned about the anchor to that place.
-                let heading_in_map = ring.heading_at(submap_in_map * centre);
-                let centre = Pose2::new(
-                    centre.x_m,
-                    centre.y_m,
-                    heading_in_map - submap_in_map.theta_rad,
-                );
-                (off_ring_m <= ring.slop_m + options.max_distance_m).then_some((
+                // The places on the ring near the submap's scans.
+                let near: Vec<(Pose2, f64)> = places
+                    .iter()
+                    .filter_map(|&place| {
+                        let off_m = submap
+                            .scan_poses_in_submap()
+                            .map(|pose| distance_m(submap_in_map * pose, place))
+                            .min_by(f64::total_cmp)?;
+                        (off_m <= ring.slop_m + options.max_distance_m).then_some((place, off_m))
+                    })
+                    .collect();
+                if near.is_empty() {
+                    return None;
+                }
+                // Each search of the submap tries the next of them.
+                let (place, off_m) = near[self.relocalisation_visits[guess.submap] % near.len()];
+                Some((
                     self.last_relocalisation_search[guess.submap],
-                    off_ring_m,
+                    off_m,
                     guess.submap,
-                    centre,
+                    submap_in_map.inverse() * place,
                 ))
             })
             .collect();
         if candidates.is_empty() {
-            return false;
+            return;
         }
         candidates.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let budget = self.options.relocalisation.max_searches_per_scan;
         // Within the window the ring spans a turn of this much either way: where that is
         // within the narrow search's turn, the heading the ring gives is searched as far.
-        let window_m = self.options.relocalisation.search.search_window_m;
         let narrow = ring.turn_within_rad(window_m) <= self.options.relocalisation.narrow_turn_rad;
         for (_, _, index, centre_in_submap) in candidates.into_iter().take(budget) {
             self.last_relocalisation_search[index] = node;
+            self.relocalisation_visits[index] += 1;
             self.stats.loop_closure_searches += 1;
             self.stats.relocalisation_searches += 1;
             let submap = &self.finished[index].0;
@@ -885,7 +895,6 @@ impl GraphSlam {
                 });
             }
         }
-        true
     }
 
     /// Searches the scan of `node` where each closure the uncertain closer found and that
@@ -1296,6 +1305,35 @@ impl Ring {
             return std::f64::consts::PI;
         }
         (reach_m / radius_m).asin() + self.drift_rad
+    }
+
+    /// The estimate turned about the anchor by `turn_rad`: where the robot is if that was
+    /// the heading error.
+    fn turned(&self, turn_rad: f64) -> Pose2 {
+        let anchor = Pose2::new(self.anchor_in_map.x_m, self.anchor_in_map.y_m, 0.0);
+        anchor * Pose2::new(0.0, 0.0, turn_rad) * anchor.inverse() * self.estimate_in_map
+    }
+
+    /// Places on the ring to centre searches of half width `window_m` on, so that every
+    /// place the robot can be lies within one of them: the anchor, headed as the estimate,
+    /// where one window holds the whole ring; otherwise the estimate turned about the anchor
+    /// in steps of `window_m` along the ring.
+    fn places(&self, window_m: f64) -> Vec<Pose2> {
+        let radius_m = self.radius_m();
+        if radius_m + self.slop_m <= window_m {
+            let heading = self.estimate_in_map.theta_rad;
+            return vec![Pose2::new(
+                self.anchor_in_map.x_m,
+                self.anchor_in_map.y_m,
+                heading,
+            )];
+        }
+        let count = (std::f64::consts::TAU * radius_m / window_m)
+            .ceil()
+            .max(1.0) as usize;
+        (0..count)
+            .map(|k| self.turned(std::f64::consts::TAU * k as f64 / count as f64))
+            .collect()
     }
 
     /// How far `pose_in_map`'s position lies off the circle, metres.
@@ -1710,6 +1748,46 @@ mod tests {
         };
         let turn_deg = far.turn_within_rad(16.0).to_degrees();
         assert!((8.0..10.0).contains(&turn_deg), "{turn_deg}°");
+    }
+
+    #[test]
+    fn the_places_of_a_ring_leave_no_part_of_it_outside_every_window() {
+        let anchor_in_map = Pose2::new(-4.0, 7.0, 1.0);
+        let window_m = 16.0;
+        for radius_m in [3.0, 14.0, 40.0, 115.0] {
+            let ring = Ring {
+                anchor_in_map,
+                estimate_in_map: anchor_in_map * Pose2::new(radius_m, 0.0, 0.5),
+                slop_m: 2.0,
+                drift_rad: 5f64.to_radians(),
+            };
+            let places = ring.places(window_m);
+            if radius_m + ring.slop_m <= window_m {
+                // One window on the anchor holds the whole ring.
+                assert_eq!(places.len(), 1, "{radius_m} m");
+                assert!(distance_m(places[0], anchor_in_map) < 1e-9);
+            } else {
+                // Each place is the estimate turned about the anchor: on the ring, headed
+                // as the ring has it there.
+                assert!(
+                    places.iter().all(|&place| ring.holds(place)),
+                    "{radius_m} m"
+                );
+            }
+            // Every place the robot can be (on the ring, within the slop) lies within the
+            // square window of one of them.
+            for k in 0..720 {
+                let turned = ring.turned(f64::from(k).to_radians() / 2.0);
+                for off_m in [-ring.slop_m, 0.0, ring.slop_m] {
+                    let pose = turned * Pose2::new(off_m, 0.0, 0.0);
+                    let inside = places.iter().any(|place| {
+                        (pose.x_m - place.x_m).abs() <= window_m
+                            && (pose.y_m - place.y_m).abs() <= window_m
+                    });
+                    assert!(inside, "{radius_m} m, {k}/2°, {off_m} m off");
+                }
+            }
+        }
     }
 
     #[test]

@@ -454,7 +454,9 @@ impl Default for WeakClosureOptions {
 
 /// Relocalisation after local tracking lost its way: for a while after a scan tracking could
 /// not place, a scan whose heading relative to a finished submap it has come back near is
-/// uncertain beyond [`UncertainClosureOptions`]' turn is searched there over every heading.
+/// uncertain beyond [`UncertainClosureOptions`]' turn is searched there over every heading,
+/// centred on the places on the ring the robot can be on near the submap's scans (the
+/// uncertain closer still searches as well: drift around a long loop lies off the ring).
 ///
 /// A turn on the spot in open space loses the heading, not the position: the lost scans'
 /// constraints carry the motion prior's 0.5 m, so the robot is still within metres of where
@@ -470,7 +472,8 @@ impl Default for WeakClosureOptions {
 pub struct RelocalisationOptions {
     /// Whether to search at all.
     pub enabled: bool,
-    /// Searched scans this many nodes after a lost scan at most are relocalised.
+    /// Searched scans this many nodes after a lost scan at most are relocalised: long
+    /// enough for a robot that drove on into ground not mapped before to come back.
     pub after_lost_nodes: usize,
     /// Submaps searched this way per searched scan, at most.
     pub max_searches_per_scan: usize,
@@ -501,7 +504,7 @@ impl Default for RelocalisationOptions {
         let weak = WeakClosureOptions::default().search;
         RelocalisationOptions {
             enabled: true,
-            after_lost_nodes: 30,
+            after_lost_nodes: 300,
             max_searches_per_scan: 2,
             stretch_gap_nodes: 5,
             gate_sigmas: 3.0,
