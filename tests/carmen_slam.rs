@@ -8,6 +8,7 @@
 use std::path::PathBuf;
 
 use hil_sim::slam_replay::{SlamReplayOptions, SlamReplaySummary, replay_carmen_slam};
+use host::evaluation::ErrorSummary;
 use host::slam::SlamOptions;
 
 /// Runs `benchmark/LOG.clf` (its first `first_scans`) without odometry, against
@@ -30,6 +31,15 @@ fn replay(
         .out
         .set_file_name(format!("carmen-{test}-{}", std::process::id()));
     Some((replay_carmen_slam(&options).expect("replay"), options.out))
+}
+
+/// The error statistics of a replay's revisits against its reference.
+fn revisits(summary: &SlamReplaySummary) -> ErrorSummary {
+    summary
+        .reference_revisits
+        .as_ref()
+        .map(|e| e.summary)
+        .expect("revisit relations")
 }
 
 /// Options for `clf` (its first `first_scans`) without odometry and with the default SLAM,
@@ -105,10 +115,7 @@ fn freiburg_101_closes_its_loops_without_odometry() {
         "{:?}",
         summary.slam
     );
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     let consecutive = summary
         .reference_consecutive
         .map(|e| e.summary)
@@ -142,10 +149,7 @@ fn aces_closes_its_loop_round_the_start_without_odometry() {
     };
     assert_eq!(summary.scans, 280);
     assert!(summary.slam.chain_closures > 0, "{:?}", summary.slam);
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     // Measured: 0.041 m over 114 revisits, all between scans 0–25 and 225–275.
     assert_eq!(revisits.count, 114, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 0.10, "{revisits:?}");
@@ -179,10 +183,7 @@ fn orebro_closes_its_loop_after_scans_tracking_could_not_place() {
     assert!(stats.lost_scans > 0, "{stats:?}");
     assert!(stats.uncertain_closure_searches > 0, "{stats:?}");
     assert!(stats.closures_within_uncertainty > 0, "{stats:?}");
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     // Measured: 0.08 m over 24 revisits; 13.1 m without the wide search and the first solve
     // without the kernel.
     assert_eq!(revisits.count, 24, "{revisits:?}");
@@ -208,10 +209,7 @@ fn orebro_closes_its_last_return_on_weak_distinctive_matches() {
     assert_eq!(summary.scans, 237);
     let stats = summary.slam;
     assert!(stats.weak_closures >= 3, "{stats:?}");
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     // Measured: 0.041 m over 28 revisits; 0.26 m without the weak matches (the last return's
     // four revisits 1.7–2.0 m off).
     assert_eq!(revisits.count, 28, "{revisits:?}");
@@ -236,10 +234,7 @@ fn freiburg_campus_closes_its_first_loop_after_scans_tracking_could_not_place() 
     let stats = summary.slam;
     assert!(stats.lost_scans > 0, "{stats:?}");
     assert!(stats.loop_closures > 0, "{stats:?}");
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     // Measured: 0.020 m over 173 revisits; 16.8 m with the search around the estimate alone.
     assert_eq!(revisits.count, 173, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 0.3, "{revisits:?}");
@@ -263,10 +258,7 @@ fn freiburg_campus_finds_its_heading_again_after_a_turn_tracking_could_not_place
     };
     let stats = summary.slam;
     assert!(stats.relocalisations >= 1, "{stats:?}");
-    let revisits = summary
-        .reference_revisits
-        .map(|e| e.summary)
-        .expect("revisit relations");
+    let revisits = revisits(&summary);
     // Measured: 0.20 m over 211 revisits; 4.5 m without the relocalisation.
     assert_eq!(revisits.count, 211, "{revisits:?}");
     assert!(revisits.mean_translation_m <= 0.3, "{revisits:?}");

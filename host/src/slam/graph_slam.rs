@@ -177,9 +177,8 @@ pub struct GraphSlam {
     /// The closures `uncertain_closer` and `relocaliser` found: while one waits for its confirmation, the scans
     /// after it are searched where it predicts them.
     followed_closures: Vec<FollowedClosure>,
-    /// The last node local tracking could not place, where it started afresh.
-    last_lost_node: Option<usize>,
-    /// The last stretch of lost scans, while its heading is searched for.
+    /// The last stretch of lost scans (its last node is the last one local tracking could
+    /// not place, where it started afresh), and whether its heading was found again.
     lost_heading: Option<LostHeading>,
     /// For every finished submap, the node last searched in it by `closer`.
     last_search: Vec<usize>,
@@ -252,7 +251,6 @@ impl GraphSlam {
             last_uncertain_search: Vec::new(),
             last_relocalisation_search: Vec::new(),
             relocalisation_visits: Vec::new(),
-            last_lost_node: None,
             lost_heading: None,
             weak_closer: LoopCloser::new(options.weak_closure.search.clone())?,
             weak_confirmation: ClosureConfirmation::new(options.weak_closure.confirmation),
@@ -352,7 +350,6 @@ impl GraphSlam {
         }
         self.poses_in_local.push(tracked.pose_in_local);
         if tracked.lost {
-            self.last_lost_node = Some(node);
             let [sigma_m, _] = tracked.prior_sigma;
             let gap = self.options.relocalisation.stretch_gap_nodes;
             match &mut self.lost_heading {
@@ -596,8 +593,8 @@ impl GraphSlam {
             // A submap tracking still tied the scan to is not searched, unless tracking lost
             // its way since the submap's last scan and started afresh.
             let restarted_since = self
-                .last_lost_node
-                .is_some_and(|lost| lost > submap.last_node());
+                .lost_heading
+                .is_some_and(|lost| lost.last_lost > submap.last_node());
             if submap.last_node() + options.min_scans_apart > node && !restarted_since {
                 continue;
             }
@@ -833,12 +830,16 @@ impl GraphSlam {
                 let submap = &self.finished[guess.submap].0;
                 let submap_in_map = self.node_pose_in_map(submap.first_node())?;
                 // The places on the ring near the submap's scans.
+                let scans_in_map: Vec<Pose2> = submap
+                    .scan_poses_in_submap()
+                    .map(|pose| submap_in_map * pose)
+                    .collect();
                 let near: Vec<(Pose2, f64)> = places
                     .iter()
                     .filter_map(|&place| {
-                        let off_m = submap
-                            .scan_poses_in_submap()
-                            .map(|pose| distance_m(submap_in_map * pose, place))
+                        let off_m = scans_in_map
+                            .iter()
+                            .map(|&pose| distance_m(pose, place))
                             .min_by(f64::total_cmp)?;
                         (off_m <= ring.slop_m + options.max_distance_m).then_some((place, off_m))
                     })
@@ -1724,22 +1725,16 @@ mod tests {
             slop_m: 1.0,
             drift_rad: 2f64.to_radians(),
         };
-        let turned = |turn_rad: f64| {
-            anchor_in_map
-                * Pose2::new(0.0, 0.0, turn_rad)
-                * anchor_in_map.inverse()
-                * estimate_in_map
-        };
         for turn_deg in [-170.0, -70.0, 0.0, 45.0, 120.0] {
-            let pose = turned(f64::to_radians(turn_deg));
+            let pose = ring.turned(f64::to_radians(turn_deg));
             assert!(ring.holds(pose), "{turn_deg}°");
             // The same place with its heading not turned with it.
             let unturned = Pose2::new(pose.x_m, pose.y_m, estimate_in_map.theta_rad);
             assert_eq!(ring.holds(unturned), turn_deg == 0.0, "{turn_deg}°");
         }
         // Off the ring by more than its slop.
-        assert!(!ring.holds(turned(1.0) * Pose2::new(1.5, 0.0, 0.0)));
-        assert!(ring.holds(turned(1.0) * Pose2::new(0.5, 0.0, 0.0)));
+        assert!(!ring.holds(ring.turned(1.0) * Pose2::new(1.5, 0.0, 0.0)));
+        assert!(ring.holds(ring.turned(1.0) * Pose2::new(0.5, 0.0, 0.0)));
         // A 16 m window on a 20 m ring may hold any heading; on a 200 m ring, a few degrees.
         assert_eq!(ring.turn_within_rad(16.0), std::f64::consts::PI);
         let far = Ring {
