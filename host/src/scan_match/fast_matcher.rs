@@ -16,12 +16,17 @@
 //!   an unblocked pixel of the level-`k` max-pooled grid ([`PrecomputationGrids`]) is uncovered for
 //!   every translation of the block, so their count is a lower bound on `uncovered` over the
 //!   block (pixels clipped by the raster count as blocked, which keeps the bound admissible).
-//! * Blocks wait in one queue, lowest `(bound, lowest table number)` first, and the block at
-//!   its head is split into its four children until that key is not below the best
-//!   `(uncovered, table number)` scored so far. Every block left then holds only candidates that
-//!   score higher or tie with a higher table number. The guess is scored before anything else,
-//!   so that a good guess keeps most blocks out of the queue from the start. Taking the lowest
-//!   bound first splits no block that a search in any other order could have ruled out.
+//! * Blocks wait in one queue, lowest bound first, and the block at its head is split into
+//!   its four children unless its `(bound, lowest table number)` is not below the best
+//!   `(uncovered, table number)` scored so far; the search ends when the lowest bound left is
+//!   above the best's. Every block left then holds only candidates that score higher or tie
+//!   with a higher table number. The guess is scored before anything else, so that a good
+//!   guess keeps most blocks out of the queue from the start. Taking the lowest bound first
+//!   splits no block that a search in any other order could have ruled out (but for ties of
+//!   the bound, which the queue takes in any order).
+//! * Bounds are whole pixel counts no larger than the new drawing, so the queue is a bucket
+//!   per count ([`BlockQueue`]): a push and a pop cost the same however many blocks wait,
+//!   where a binary heap's grow with their number.
 //!
 //! # Trade-off against the reference
 //!
@@ -30,9 +35,8 @@
 //! with a handful of word operations per occupied row, visiting only the candidates whose block
 //! bounds cannot be ruled out. It costs more code and some memory per match.
 
-use std::collections::BinaryHeap;
-
 use super::bit_grid::BitGrid;
+use super::pose_region::PoseRegion;
 use super::precomputation_grid::PrecomputationGrids;
 use super::rotated_scan::RotatedScan;
 use super::scan::Scan;
@@ -157,8 +161,31 @@ impl FastMatcher {
         new: &Scan,
         initial_reference_from_new: Pose2,
     ) -> Result<MatchResult, ScanMatchError> {
-        self.search_prepared(reference, new, initial_reference_from_new, None)?
+        self.search_prepared(reference, new, initial_reference_from_new, None, None)?
             .ok_or(ScanMatchError::InvalidOptions("empty search table"))
+    }
+
+    /// [`Self::match_prepared`] over the candidates in `region` only: the best match among the
+    /// poses it holds, found without splitting a block of candidates the region rules out.
+    /// `None` when it holds no candidate.
+    ///
+    /// # Errors
+    ///
+    /// As [`Self::match_prepared`].
+    pub fn match_prepared_within(
+        &self,
+        reference: &PreparedReference,
+        new: &Scan,
+        initial_reference_from_new: Pose2,
+        region: &dyn PoseRegion,
+    ) -> Result<Option<MatchResult>, ScanMatchError> {
+        self.search_prepared(
+            reference,
+            new,
+            initial_reference_from_new,
+            None,
+            Some(region),
+        )
     }
 
     /// [`Self::match_prepared`] over the candidates outside `excluded` only: the best match
@@ -175,7 +202,13 @@ impl FastMatcher {
         initial_reference_from_new: Pose2,
         excluded: Excluded,
     ) -> Result<Option<MatchResult>, ScanMatchError> {
-        self.search_prepared(reference, new, initial_reference_from_new, Some(excluded))
+        self.search_prepared(
+            reference,
+            new,
+            initial_reference_from_new,
+            Some(excluded),
+            None,
+        )
     }
 
     /// How many pixels the drawing of `new` at `candidate` (around `initial_reference_from_new`)
@@ -212,6 +245,7 @@ impl FastMatcher {
         new: &Scan,
         initial_reference_from_new: Pose2,
         excluded: Option<Excluded>,
+        region: Option<&dyn PoseRegion>,
     ) -> Result<Option<MatchResult>, ScanMatchError> {
         check_guess(initial_reference_from_new)?;
         let raster = &self.raster;
@@ -247,7 +281,8 @@ impl FastMatcher {
             candidates_evaluated: 0,
             guess_index: None,
             excluded,
-            queue: BinaryHeap::new(),
+            region: region.map(|region| (region, initial_reference_from_new, raster.resolution_m)),
+            queue: BlockQueue::default(),
         };
         // The guess itself first: a real candidate, so that its score bounds the search from
         // the start without changing the answer.
@@ -352,24 +387,35 @@ struct BoundedBlock {
     key: (u32, usize),
 }
 
-impl PartialEq for BoundedBlock {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
+/// Blocks waiting to be split, taken lowest bound first (ties in any order): one stack per
+/// bound, and the lowest bound that may hold a block.
+#[derive(Debug, Default)]
+struct BlockQueue {
+    /// `buckets[b]` holds the blocks of bound `b`.
+    buckets: Vec<Vec<BoundedBlock>>,
+    /// No bucket below this holds a block.
+    lowest: usize,
 }
 
-impl Eq for BoundedBlock {}
-
-impl PartialOrd for BoundedBlock {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
+impl BlockQueue {
+    fn push(&mut self, bounded: BoundedBlock) {
+        let bound = bounded.key.0 as usize;
+        if bound >= self.buckets.len() {
+            self.buckets.resize_with(bound + 1, Vec::new);
+        }
+        self.buckets[bound].push(bounded);
+        self.lowest = self.lowest.min(bound);
     }
-}
 
-impl Ord for BoundedBlock {
-    /// Reversed, so that the queue's greatest is the lowest key.
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.key.cmp(&self.key)
+    /// A block of the lowest bound waiting, if any.
+    fn pop(&mut self) -> Option<BoundedBlock> {
+        while let Some(bucket) = self.buckets.get_mut(self.lowest) {
+            if let Some(bounded) = bucket.pop() {
+                return Some(bounded);
+            }
+            self.lowest += 1;
+        }
+        None
     }
 }
 
@@ -385,8 +431,11 @@ struct Search<'a> {
     guess_index: Option<usize>,
     /// Candidates never scored (their blocks' bounds still hold for the rest).
     excluded: Option<Excluded>,
-    /// Blocks waiting, lowest key first.
-    queue: BinaryHeap<BoundedBlock>,
+    /// The poses the search may take, with the guess and the raster's resolution (m) that
+    /// give a block's poses.
+    region: Option<(&'a dyn PoseRegion, Pose2, f64)>,
+    /// Blocks waiting, lowest bound first.
+    queue: BlockQueue,
 }
 
 impl Search<'_> {
@@ -413,6 +462,9 @@ impl Search<'_> {
         {
             return;
         }
+        if !self.region_may_hold(block) {
+            return;
+        }
         let offset_px = self.table.offset_px(block.x_index, block.y_index);
         let uncovered = self.rotated_scans[block.rotation_index as usize]
             .uncovered_px(self.grids.level(block.level), offset_px);
@@ -426,12 +478,38 @@ impl Search<'_> {
         }
     }
 
-    /// Takes blocks lowest key first and splits them, until the lowest key left is not below
-    /// the best candidate scored (at the latest, when that candidate comes first itself).
+    /// Whether the region (if any) may hold a pose of `block`.
+    fn region_may_hold(&self, block: Block) -> bool {
+        let Some((region, guess, resolution_m)) = self.region else {
+            return true;
+        };
+        let side = 1u32 << block.level;
+        let last = |index: u32, count: usize| (index + side - 1).min(count as u32 - 1);
+        let low_px = self.table.offset_px(block.x_index, block.y_index);
+        let high_px = self.table.offset_px(
+            last(block.x_index, self.table.num_x()),
+            last(block.y_index, self.table.num_y()),
+        );
+        // As `SearchTable::reference_from_new` places a candidate.
+        let at = |offset_px: [i32; 2]| {
+            [
+                guess.x_m + f64::from(offset_px[0]) * resolution_m,
+                guess.y_m + f64::from(offset_px[1]) * resolution_m,
+            ]
+        };
+        let heading_rad = self.table.angle_rad(guess, block.rotation_index);
+        region.may_hold(heading_rad, at(low_px), at(high_px))
+    }
+
+    /// Takes blocks lowest bound first and splits those whose key is below the best
+    /// candidate's scored so far, until the lowest bound left is above the best's.
     fn explore(&mut self) {
         while let Some(BoundedBlock { block, key }) = self.queue.pop() {
-            if key >= self.best {
+            if key.0 > self.best.0 {
                 return;
+            }
+            if key >= self.best {
+                continue;
             }
             // Candidates enter `best` when scored, so this block has children.
             let half = 1u32 << (block.level - 1);
@@ -633,6 +711,73 @@ mod tests {
             }
             let best = fast.match_scans(&reference, &new, guess).unwrap();
             if !excluded.contains(best.candidate) {
+                prop_assert_eq!(found.map(|r| r.table_index), Some(best.table_index));
+            }
+        }
+    }
+
+    /// The poses within `radius_m` of `centre_m` headed within `half_turn_rad` of
+    /// `heading_rad`: a region whose blocks it rules out only in part.
+    struct Disc {
+        centre_m: [f64; 2],
+        radius_m: f64,
+        heading_rad: f64,
+        half_turn_rad: f64,
+    }
+
+    impl PoseRegion for Disc {
+        fn may_hold(&self, heading_rad: f64, min_m: [f64; 2], max_m: [f64; 2]) -> bool {
+            let near = |axis: usize| {
+                (min_m[axis] - self.centre_m[axis])
+                    .max(self.centre_m[axis] - max_m[axis])
+                    .max(0.0)
+            };
+            let turn = crate::geometry::wrap_angle_rad(heading_rad - self.heading_rad);
+            near(0).hypot(near(1)) <= self.radius_m && turn.abs() <= self.half_turn_rad
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// Within a region the branch and bound finds what scoring every candidate of the
+        /// region finds; and a region holding the best candidate changes nothing.
+        #[test]
+        fn prop_within_a_region_the_search_finds_the_best_of_it(
+            (reference, new) in scan_pair(),
+            raster in raster(),
+            table in table(),
+            guess in pose(0.5, 0.3),
+            centre in (-0.5..0.5f64, -0.5..0.5f64),
+            radius_m in 0.0..0.4f64,
+            turn in (-0.1..0.1f64, 0.0..0.1f64),
+        ) {
+            let fast = FastMatcher::new(raster, table).unwrap();
+            let every = fast.clone().with_branch_and_bound_depth(0);
+            let region = Disc {
+                centre_m: [guess.x_m + centre.0, guess.y_m + centre.1],
+                radius_m,
+                heading_rad: guess.theta_rad + turn.0,
+                half_turn_rad: turn.1,
+            };
+            let within = |matcher: &FastMatcher| {
+                matcher
+                    .match_prepared_within(&matcher.prepare(&reference), &new, guess, &region)
+                    .unwrap()
+            };
+            let (found, expected) = (within(&fast), within(&every));
+            prop_assert_eq!(found.map(|r| (r.table_index, r.score_px)), expected.map(|r| (r.table_index, r.score_px)));
+            let held = |candidate: Candidate| {
+                let pose = table.reference_from_new(guess, &raster, candidate);
+                region.may_hold(pose.theta_rad, [pose.x_m, pose.y_m], [pose.x_m, pose.y_m])
+            };
+            if let Some(found) = found {
+                prop_assert!(held(found.candidate));
+            } else {
+                prop_assert!((0..table.len()).all(|i| !held(table.candidate(i).unwrap())));
+            }
+            let best = fast.match_scans(&reference, &new, guess).unwrap();
+            if held(best.candidate) {
                 prop_assert_eq!(found.map(|r| r.table_index), Some(best.table_index));
             }
         }

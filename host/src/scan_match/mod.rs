@@ -11,6 +11,7 @@
 //! * [`ReferenceMatcher`]: the method as stated, one raster per candidate. It defines the answer.
 //! * [`FastMatcher`]: exactly the same answer by branch and bound over bit-packed, max-pooled
 //!   rasters.
+//! * [`PoseRegion`]: a part of the table a search is restricted to.
 //! * [`Scan`]: the input, end points in the robot frame (x forward, y left); poses are
 //!   [`crate::geometry::Pose2`].
 //! * [`synthetic`]: scans cast in a world of walls, for tests and benchmarks.
@@ -18,6 +19,7 @@
 mod bit_grid;
 mod bresenham;
 mod fast_matcher;
+mod pose_region;
 mod precomputation_grid;
 mod reference_matcher;
 mod rotated_scan;
@@ -28,6 +30,7 @@ pub mod synthetic;
 
 pub use bresenham::BresenhamLine;
 pub use fast_matcher::{Excluded, FastMatcher, MAX_BRANCH_AND_BOUND_DEPTH, PreparedReference};
+pub use pose_region::PoseRegion;
 pub use reference_matcher::ReferenceMatcher;
 pub use scan::Scan;
 pub use search::{Candidate, MatchResult, RasterOptions, ScanMatchError, ScanMatcher, SearchTable};
