@@ -11,7 +11,7 @@ use super::closure_gain::closure_gain_nats;
 use super::degeneracy::{closure_information, consecutive_information};
 use super::final_refinement::refinement_closures;
 use super::local_tracker::LocalTracker;
-use super::loop_closer::LoopCloser;
+use super::loop_closer::{LoopCloser, LoopClosure};
 use super::node_index::NodeIndex;
 use super::options::{LoopClosureOptions, SlamOptions};
 use super::settled_submaps::SettledSubmaps;
@@ -23,6 +23,7 @@ use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{
     Edge, EdgeId, NodeId, PoseGraph, RelativeCovariances, relative_covariance, relative_covariances,
 };
+use crate::scan_match::PoseRegion;
 use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
@@ -880,14 +881,19 @@ impl GraphSlam {
             } else {
                 &self.relocaliser
             };
+            let on_ring =
+                |closure: &LoopClosure| ring.holds(submap_in_map * closure.pose_in_submap);
             let closure = closer
-                .search_around_guess(submap, &reference_scan, scan, centre_in_submap)
-                .filter(|closure| {
-                    let on_ring = ring.holds(submap_in_map * closure.pose_in_submap);
-                    let ambiguity =
-                        || closer.ambiguity_around(&reference_scan, scan, closure.pose_in_submap);
-                    on_ring && ambiguity() <= self.options.relocalisation.max_ambiguity
-                });
+                .search_distinct_around_guess(
+                    submap,
+                    &reference_scan,
+                    scan,
+                    centre_in_submap,
+                    Some(&ring.in_frame(submap_in_map)),
+                    on_ring,
+                )
+                .filter(|(_, ambiguity)| *ambiguity <= self.options.relocalisation.max_ambiguity)
+                .map(|(closure, _)| closure);
             if let Some(closure) = self.offer_closure(node, index, closure) {
                 self.followed_closures.push(FollowedClosure {
                     closure,
@@ -1337,6 +1343,17 @@ impl Ring {
             .collect()
     }
 
+    /// The same ring in the frame `frame_in_map` (its poses, named in the map, then in that
+    /// frame).
+    fn in_frame(&self, frame_in_map: Pose2) -> Ring {
+        let map_in_frame = frame_in_map.inverse();
+        Ring {
+            anchor_in_map: map_in_frame * self.anchor_in_map,
+            estimate_in_map: map_in_frame * self.estimate_in_map,
+            ..*self
+        }
+    }
+
     /// How far `pose_in_map`'s position lies off the circle, metres.
     fn off_m(&self, pose_in_map: Pose2) -> f64 {
         (distance_m(self.anchor_in_map, pose_in_map) - self.radius_m()).abs()
@@ -1357,6 +1374,50 @@ impl Ring {
             crate::geometry::wrap_angle_rad(pose_in_map.theta_rad - self.heading_at(pose_in_map))
                 .abs();
         disagreement <= (self.slop_m / radius_m).asin() + self.drift_rad
+    }
+}
+
+impl PoseRegion for Ring {
+    /// Whether a pose headed `heading_rad` in the rectangle may be [held](Ring::holds): the
+    /// rectangle reaches into the band `slop_m` either side of the circle, and the heading is
+    /// within the ring's tolerance of the heading the ring gives at some bearing of the
+    /// rectangle from the anchor.
+    fn may_hold(&self, heading_rad: f64, min_m: [f64; 2], max_m: [f64; 2]) -> bool {
+        let anchor = [self.anchor_in_map.x_m, self.anchor_in_map.y_m];
+        let nearest = |axis: usize| (min_m[axis] - anchor[axis]).max(anchor[axis] - max_m[axis]);
+        let farthest = |axis: usize| {
+            (min_m[axis] - anchor[axis])
+                .abs()
+                .max((max_m[axis] - anchor[axis]).abs())
+        };
+        let near_m = nearest(0).max(0.0).hypot(nearest(1).max(0.0));
+        let far_m = farthest(0).hypot(farthest(1));
+        let radius_m = self.radius_m();
+        if near_m > radius_m + self.slop_m || far_m < radius_m - self.slop_m {
+            return false;
+        }
+        if radius_m <= self.slop_m || near_m == 0.0 {
+            // Every heading, or every bearing from the anchor.
+            return true;
+        }
+        // The bearings of the rectangle from the anchor, about that of its centre: the anchor
+        // lies outside it, so its corners span them, less than half a turn.
+        let bearing = |p: [f64; 2]| (p[1] - anchor[1]).atan2(p[0] - anchor[0]);
+        let centre = [0.5 * (min_m[0] + max_m[0]), 0.5 * (min_m[1] + max_m[1])];
+        let centre_bearing = bearing(centre);
+        let (mut low_rad, mut high_rad) = (0.0f64, 0.0f64);
+        for corner in [min_m, [max_m[0], min_m[1]], max_m, [min_m[0], max_m[1]]] {
+            let turn = crate::geometry::wrap_angle_rad(bearing(corner) - centre_bearing);
+            low_rad = low_rad.min(turn);
+            high_rad = high_rad.max(turn);
+        }
+        let tolerance_rad = (self.slop_m / radius_m).asin() + self.drift_rad;
+        let at_centre = Pose2::new(centre[0], centre[1], 0.0);
+        let turn = crate::geometry::wrap_angle_rad(heading_rad - self.heading_at(at_centre));
+        let tau = std::f64::consts::TAU;
+        [turn - tau, turn, turn + tau]
+            .iter()
+            .any(|&turn| (low_rad - tolerance_rad..=high_rad + tolerance_rad).contains(&turn))
     }
 }
 
@@ -1782,6 +1843,74 @@ mod tests {
                     assert!(inside, "{radius_m} m, {k}/2°, {off_m} m off");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_ring_rules_out_no_block_that_holds_a_pose_on_it_and_decides_single_poses() {
+        let anchor_in_map = Pose2::new(-4.0, 7.0, 1.0);
+        // A ring in a submap's frame, as a relocalisation searches it.
+        let frame_in_map = Pose2::new(10.0, -3.0, 2.0);
+        for radius_m in [1.5, 6.0, 25.0] {
+            let ring = Ring {
+                anchor_in_map,
+                estimate_in_map: anchor_in_map * Pose2::new(radius_m, 0.0, 0.5),
+                slop_m: 2.0,
+                drift_rad: 5f64.to_radians(),
+            };
+            let in_frame = ring.in_frame(frame_in_map);
+            let mut ruled_out = 0;
+            // Blocks of side 0 (single poses), 0.4 m and 3.2 m over a square around the
+            // anchor, at headings 6° apart.
+            for side_m in [0.0, 0.4, 3.2] {
+                for i in -40..40 {
+                    for j in -40..40 {
+                        let min_in_map = [
+                            anchor_in_map.x_m + 0.8 * f64::from(i) + 0.013,
+                            anchor_in_map.y_m + 0.8 * f64::from(j) + 0.029,
+                        ];
+                        for k in 0..60 {
+                            let heading_rad = (f64::from(k) * 6.0 + 0.7).to_radians();
+                            // Poses of the block, in the map and in the frame.
+                            let poses_in_map: Vec<Pose2> = (0..=4)
+                                .flat_map(|a| (0..=4).map(move |b| (a, b)))
+                                .map(|(a, b)| {
+                                    Pose2::new(
+                                        min_in_map[0] + side_m * f64::from(a) / 4.0,
+                                        min_in_map[1] + side_m * f64::from(b) / 4.0,
+                                        heading_rad,
+                                    )
+                                })
+                                .collect();
+                            let held = poses_in_map.iter().any(|&pose| ring.holds(pose));
+                            let corner = poses_in_map[0];
+                            let may = ring.may_hold(
+                                heading_rad,
+                                min_in_map,
+                                [min_in_map[0] + side_m, min_in_map[1] + side_m],
+                            );
+                            assert!(may || !held, "{radius_m} m, {side_m} m, {corner:?}");
+                            if side_m == 0.0 {
+                                assert_eq!(may, held, "{radius_m} m, {corner:?}");
+                                // The same in the frame.
+                                let in_frame_pose = frame_in_map.inverse() * corner;
+                                let may_in_frame = in_frame.may_hold(
+                                    in_frame_pose.theta_rad,
+                                    [in_frame_pose.x_m, in_frame_pose.y_m],
+                                    [in_frame_pose.x_m, in_frame_pose.y_m],
+                                );
+                                assert_eq!(may_in_frame, held, "{radius_m} m, {corner:?}");
+                            }
+                            ruled_out += usize::from(!may);
+                        }
+                    }
+                }
+            }
+            // Most of the square and of the headings lies off the ring.
+            assert!(
+                ruled_out > 3 * 80 * 80 * 60 / 2,
+                "{radius_m} m: {ruled_out}"
+            );
         }
     }
 

@@ -19,7 +19,8 @@ use super::window_matcher::window_matcher;
 use crate::geometry::Pose2;
 use crate::grid::Occupancy;
 use crate::scan_match::{
-    Candidate, Excluded, FastMatcher, MatchResult, PreparedReference, Scan, ScanMatchError,
+    Candidate, Excluded, FastMatcher, MatchResult, PoseRegion, PreparedReference, Scan,
+    ScanMatchError,
 };
 
 /// A scan found in a submap.
@@ -178,16 +179,59 @@ impl LoopCloser {
         scan: &Scan,
         guess_in_submap: Pose2,
     ) -> Option<LoopClosure> {
+        self.search_distinct_around_guess(
+            submap,
+            reference_scan,
+            scan,
+            guess_in_submap,
+            None,
+            |_| false,
+        )
+        .map(|(closure, _)| closure)
+    }
+
+    /// [`Self::search_around_guess`] over the poses of the window that `region` (in the
+    /// submap's frame; `None`: all) holds, and for a closure `worth` the test, its ambiguity
+    /// over the whole window: the share of its fit (the overlap of the drawings) that the
+    /// best candidate outside its basin reaches, 0 where nothing else fits, 1 where another
+    /// pose fits as well, above 1 where one fits better (`NaN` for a closure not `worth` it).
+    /// The second search reuses the first one's raster of the submap.
+    pub fn search_distinct_around_guess(
+        &self,
+        submap: &SlamSubmap,
+        reference_scan: &Scan,
+        scan: &Scan,
+        guess_in_submap: Pose2,
+        region: Option<&dyn PoseRegion>,
+        worth: impl FnOnce(&LoopClosure) -> bool,
+    ) -> Option<(LoopClosure, f64)> {
         let (reference, submap_from_centre) = self.prepare_around(reference_scan, guess_in_submap);
         let near_beams = self.near_beams(scan);
         let guess_in_centre = submap_from_centre.inverse() * guess_in_submap;
-        let found = self
-            .matcher
-            .match_prepared(&reference, &near_beams, guess_in_centre)
-            .ok()?;
+        let found = match region {
+            None => self
+                .matcher
+                .match_prepared(&reference, &near_beams, guess_in_centre)
+                .ok()?,
+            Some(region) => {
+                let in_centre = Shifted {
+                    region,
+                    by_m: [submap_from_centre.x_m, submap_from_centre.y_m],
+                };
+                self.matcher
+                    .match_prepared_within(&reference, &near_beams, guess_in_centre, &in_centre)
+                    .ok()??
+            }
+        };
         let candidate =
             self.align_from(submap, scan, submap_from_centre * found.reference_from_new)?;
-        self.accept(submap, &candidate)
+        let closure = self.accept(submap, &candidate)?;
+        let ambiguity = if worth(&closure) {
+            self.ambiguity(&reference, &near_beams, guess_in_centre, &found)
+        } else {
+            f64::NAN
+        };
+        Some((closure, ambiguity))
     }
 
     /// How ambiguous `pose_in_submap` is for `scan` over this searcher's whole window around
@@ -320,6 +364,21 @@ impl LoopCloser {
             fit,
             information_in_robot: candidate.information_in_robot,
         })
+    }
+}
+
+/// A region of the submap's frame seen from a frame translated by `by_m` in it (a raster
+/// centred on a guess).
+struct Shifted<'a> {
+    region: &'a dyn PoseRegion,
+    by_m: [f64; 2],
+}
+
+impl PoseRegion for Shifted<'_> {
+    fn may_hold(&self, heading_rad: f64, min_m: [f64; 2], max_m: [f64; 2]) -> bool {
+        let shift = |p: [f64; 2]| [p[0] + self.by_m[0], p[1] + self.by_m[1]];
+        self.region
+            .may_hold(heading_rad, shift(min_m), shift(max_m))
     }
 }
 
