@@ -262,14 +262,29 @@ impl FastMatcher {
         // The new scan, drawn once per rotation.
         let new_polyline = Polyline::new(new, raster.max_gap_m);
         let margin_px = table.max_offset_px().map(|m| m as usize);
-        let rotated_scans: Vec<RotatedScan> = (0..table.num_rotations() as u32)
+        let region = region.map(|region| BlockRegion {
+            region,
+            guess: initial_reference_from_new,
+            resolution_m: raster.resolution_m,
+        });
+        // Not the rotations of which the region holds no pose.
+        let last = [table.num_x() as u32 - 1, table.num_y() as u32 - 1];
+        let rotated_scans: Vec<Option<RotatedScan>> = (0..table.num_rotations() as u32)
             .map(|rotation_index| {
+                if region.is_some_and(|r| !r.may_hold(table, rotation_index, [0, 0], last)) {
+                    return None;
+                }
                 let rotation_only = Pose2 {
                     theta_rad: table.angle_rad(initial_reference_from_new, rotation_index),
                     ..initial_reference_from_new
                 };
                 let vertices_px = new_polyline.vertices_px(rotation_only, raster);
-                RotatedScan::new(&new_polyline, &vertices_px, raster, margin_px)
+                Some(RotatedScan::new(
+                    &new_polyline,
+                    &vertices_px,
+                    raster,
+                    margin_px,
+                ))
             })
             .collect();
 
@@ -281,7 +296,7 @@ impl FastMatcher {
             candidates_evaluated: 0,
             guess_index: None,
             excluded,
-            region: region.map(|region| (region, initial_reference_from_new, raster.resolution_m)),
+            region,
             queue: BlockQueue::default(),
         };
         // The guess itself first: a real candidate, so that its score bounds the search from
@@ -419,11 +434,45 @@ impl BlockQueue {
     }
 }
 
+/// A [`PoseRegion`] and what places a search's candidates in its frame.
+#[derive(Clone, Copy)]
+struct BlockRegion<'a> {
+    region: &'a dyn PoseRegion,
+    /// The search's guess, at the table's centre.
+    guess: Pose2,
+    /// The raster's pixel size, metres.
+    resolution_m: f64,
+}
+
+impl BlockRegion<'_> {
+    /// Whether the region may hold a pose of rotation `rotation_index` with its translation
+    /// indices (x, y) from `first` to `last`.
+    fn may_hold(
+        &self,
+        table: &SearchTable,
+        rotation_index: u32,
+        first: [u32; 2],
+        last: [u32; 2],
+    ) -> bool {
+        // As `SearchTable::reference_from_new` places a candidate.
+        let at = |[x_index, y_index]: [u32; 2]| {
+            let offset_px = table.offset_px(x_index, y_index);
+            [
+                self.guess.x_m + f64::from(offset_px[0]) * self.resolution_m,
+                self.guess.y_m + f64::from(offset_px[1]) * self.resolution_m,
+            ]
+        };
+        let heading_rad = table.angle_rad(self.guess, rotation_index);
+        self.region.may_hold(heading_rad, at(first), at(last))
+    }
+}
+
 /// State of one branch-and-bound search.
 struct Search<'a> {
     table: &'a SearchTable,
     grids: &'a PrecomputationGrids,
-    rotated_scans: &'a [RotatedScan],
+    /// The new scan drawn at each rotation; `None` where the region holds none of its poses.
+    rotated_scans: &'a [Option<RotatedScan>],
     /// `(uncovered pixels, table number)` of the best candidate so far.
     best: (u32, usize),
     candidates_evaluated: usize,
@@ -431,9 +480,8 @@ struct Search<'a> {
     guess_index: Option<usize>,
     /// Candidates never scored (their blocks' bounds still hold for the rest).
     excluded: Option<Excluded>,
-    /// The poses the search may take, with the guess and the raster's resolution (m) that
-    /// give a block's poses.
-    region: Option<(&'a dyn PoseRegion, Pose2, f64)>,
+    /// The poses the search may take.
+    region: Option<BlockRegion<'a>>,
     /// Blocks waiting, lowest bound first.
     queue: BlockQueue,
 }
@@ -462,12 +510,23 @@ impl Search<'_> {
         {
             return;
         }
-        if !self.region_may_hold(block) {
+        let Some(rotated_scan) = &self.rotated_scans[block.rotation_index as usize] else {
             return;
+        };
+        if let Some(region) = self.region {
+            let side = 1u32 << block.level;
+            let last = |index: u32, count: usize| (index + side - 1).min(count as u32 - 1);
+            let last = [
+                last(block.x_index, self.table.num_x()),
+                last(block.y_index, self.table.num_y()),
+            ];
+            let first = [block.x_index, block.y_index];
+            if !region.may_hold(self.table, block.rotation_index, first, last) {
+                return;
+            }
         }
         let offset_px = self.table.offset_px(block.x_index, block.y_index);
-        let uncovered = self.rotated_scans[block.rotation_index as usize]
-            .uncovered_px(self.grids.level(block.level), offset_px);
+        let uncovered = rotated_scan.uncovered_px(self.grids.level(block.level), offset_px);
         let key = (uncovered, lowest_index);
         if block.level == 0 {
             self.candidates_evaluated += 1;
@@ -476,29 +535,6 @@ impl Search<'_> {
         if key <= self.best {
             self.queue.push(BoundedBlock { block, key });
         }
-    }
-
-    /// Whether the region (if any) may hold a pose of `block`.
-    fn region_may_hold(&self, block: Block) -> bool {
-        let Some((region, guess, resolution_m)) = self.region else {
-            return true;
-        };
-        let side = 1u32 << block.level;
-        let last = |index: u32, count: usize| (index + side - 1).min(count as u32 - 1);
-        let low_px = self.table.offset_px(block.x_index, block.y_index);
-        let high_px = self.table.offset_px(
-            last(block.x_index, self.table.num_x()),
-            last(block.y_index, self.table.num_y()),
-        );
-        // As `SearchTable::reference_from_new` places a candidate.
-        let at = |offset_px: [i32; 2]| {
-            [
-                guess.x_m + f64::from(offset_px[0]) * resolution_m,
-                guess.y_m + f64::from(offset_px[1]) * resolution_m,
-            ]
-        };
-        let heading_rad = self.table.angle_rad(guess, block.rotation_index);
-        region.may_hold(heading_rad, at(low_px), at(high_px))
     }
 
     /// Takes blocks lowest bound first and splits those whose key is below the best
