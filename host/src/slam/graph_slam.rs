@@ -1871,7 +1871,7 @@ mod tests {
                         ];
                         for k in 0..60 {
                             let heading_rad = (f64::from(k) * 6.0 + 0.7).to_radians();
-                            // Poses of the block, in the map and in the frame.
+                            // Poses spread over the block, in the map.
                             let poses_in_map: Vec<Pose2> = (0..=4)
                                 .flat_map(|a| (0..=4).map(move |b| (a, b)))
                                 .map(|(a, b)| {
