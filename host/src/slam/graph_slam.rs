@@ -23,8 +23,7 @@ use crate::grid::{ProbabilityGrid, RangeInserterOptions};
 use crate::pose_graph::{
     Edge, EdgeId, NodeId, PoseGraph, RelativeCovariances, relative_covariance, relative_covariances,
 };
-use crate::scan_match::PoseRegion;
-use crate::scan_match::{PreparedReference, Scan, ScanMatchError};
+use crate::scan_match::{PoseRegion, PreparedReference, Scan, ScanMatchError};
 
 /// What happened over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -892,7 +891,9 @@ impl GraphSlam {
                     Some(&ring.in_frame(submap_in_map)),
                     on_ring,
                 )
-                .filter(|(_, ambiguity)| *ambiguity <= self.options.relocalisation.max_ambiguity)
+                .filter(|(_, ambiguity)| {
+                    ambiguity.is_some_and(|a| a <= self.options.relocalisation.max_ambiguity)
+                })
                 .map(|(closure, _)| closure);
             if let Some(closure) = self.offer_closure(node, index, closure) {
                 self.followed_closures.push(FollowedClosure {

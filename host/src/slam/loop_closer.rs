@@ -194,7 +194,7 @@ impl LoopCloser {
     /// submap's frame; `None`: all) holds, and for a closure `worth` the test, its ambiguity
     /// over the whole window: the share of its fit (the overlap of the drawings) that the
     /// best candidate outside its basin reaches, 0 where nothing else fits, 1 where another
-    /// pose fits as well, above 1 where one fits better (`NaN` for a closure not `worth` it).
+    /// pose fits as well, above 1 where one fits better (`None` for a closure not `worth` it).
     /// The second search reuses the first one's raster of the submap.
     pub fn search_distinct_around_guess(
         &self,
@@ -204,7 +204,7 @@ impl LoopCloser {
         guess_in_submap: Pose2,
         region: Option<&dyn PoseRegion>,
         worth: impl FnOnce(&LoopClosure) -> bool,
-    ) -> Option<(LoopClosure, f64)> {
+    ) -> Option<(LoopClosure, Option<f64>)> {
         let (reference, submap_from_centre) = self.prepare_around(reference_scan, guess_in_submap);
         let near_beams = self.near_beams(scan);
         let guess_in_centre = submap_from_centre.inverse() * guess_in_submap;
@@ -226,11 +226,8 @@ impl LoopCloser {
         let candidate =
             self.align_from(submap, scan, submap_from_centre * found.reference_from_new)?;
         let closure = self.accept(submap, &candidate)?;
-        let ambiguity = if worth(&closure) {
-            self.ambiguity(&reference, &near_beams, guess_in_centre, &found)
-        } else {
-            f64::NAN
-        };
+        let ambiguity = worth(&closure)
+            .then(|| self.ambiguity(&reference, &near_beams, guess_in_centre, &found));
         Some((closure, ambiguity))
     }
 
