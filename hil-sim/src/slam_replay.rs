@@ -33,7 +33,8 @@ use host::geometry::Pose2;
 use host::grid::{MapExport, MapExportOptions};
 use host::scan_match::Scan;
 use host::slam::{
-    GridPipeline, GridPipelineOptions, SlamOptions, SlamStats, TrackingCheck, TrackingVerdict,
+    GridPipeline, GridPipelineOptions, SlamOptions, SlamStats, SlamTimings, TrackingCheck,
+    TrackingVerdict,
 };
 use serde::Serialize;
 
@@ -106,6 +107,8 @@ pub struct SlamReplaySummary {
     pub scans_per_second: f64,
     /// How the time was spent along the run.
     pub timing: ScanTiming,
+    /// Where the SLAM's time went, part by part (wall time on this machine).
+    pub slam_parts_s: SlamTimings,
     /// The log.
     pub log: String,
     /// Whether the log's poses were used as odometry.
@@ -401,6 +404,7 @@ pub fn replay_carmen_slam(
         wall_s,
         scans_per_second: scans.len() as f64 / wall_s.max(1e-9),
         timing,
+        slam_parts_s: pipeline.timings(),
         log: options.log.display().to_string(),
         odometry: options.odometry,
         no_return_from_m,
