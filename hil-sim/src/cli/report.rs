@@ -51,13 +51,14 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
     if let Some(parts) = &timing.slam_parts_s {
         eprintln!(
             "hil-sim: the SLAM's time by part: tracking {:.2} s, choosing loop closures {:.2} s, \
-             searching them {:.2} s, optimising {:.2} s, settling places {:.2} s, the end \
-             of the run {:.2} s",
+             searching them {:.2} s, optimising {:.2} s, settling places {:.2} s, refining \
+             settled places {:.2} s, the end of the run {:.2} s",
             parts.tracking_s,
             parts.closure_candidates_s,
             parts.closure_searches_s,
             parts.optimization_s,
             parts.settling_s,
+            parts.refining_ahead_s,
             parts.finish_s,
         );
     }
@@ -75,6 +76,7 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
                 parts.closure_searches_s,
                 parts.optimization_s,
                 parts.settling_s,
+                parts.refining_ahead_s,
             ]
         };
         let [first, last] = [in_run(first), in_run(last)]
@@ -82,7 +84,7 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
         eprintln!(
             "hil-sim: the same per scan over the first 1000 scans and the last 1000, ms: \
              tracking {} / {}, choosing {} / {}, searching {} / {}, optimising {} / {}, \
-             settling {} / {}",
+             settling {} / {}, refining {} / {}",
             first[0],
             last[0],
             first[1],
@@ -93,6 +95,8 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             last[3],
             first[4],
             last[4],
+            first[5],
+            last[5],
         );
     }
     if let Some(work) = &timing.slam_work {

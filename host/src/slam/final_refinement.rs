@@ -18,6 +18,12 @@
 //! A place mapped on every lap of a long run lies in a submap per lap: each scan is tried on
 //! at most [`RefinementOptions::max_submaps_per_scan`] of them, the nearest, so that the
 //! end of a run costs in proportion to its scans rather than to its scans times its laps.
+//!
+//! A scan whose place settled during the run ([`RefinedAhead`]) is aligned then, a few nodes
+//! for every node added, rather than at the end: the end aligns the scans of the places that
+//! never settled, the free part of the graph, and not every scan of the run.
+
+use std::collections::{HashMap, VecDeque};
 
 use super::closure_confirmation::FoundClosure;
 use super::icp::align;
@@ -28,57 +34,140 @@ use crate::scan_match::Scan;
 
 /// The constraints found for the scans of `nodes` (`scans` holds every node's, in node
 /// order, the beams the SLAM trusted) in `submaps`, each node and submap frame where
-/// `pose_in_map` puts it (the optimised graph). See the [module documentation](self).
+/// `pose_in_map` puts it (the optimised graph). A node aligned `ahead`, during the run, keeps
+/// the constraints found then and is not aligned again. See the
+/// [module documentation](self).
 pub(crate) fn refinement_closures(
     pose_in_map: impl Fn(usize) -> Option<Pose2>,
     nodes: &[usize],
     submaps: &[&SlamSubmap],
     scans: &[Scan],
     options: &SlamOptions,
+    ahead: &RefinedAhead,
 ) -> Vec<FoundClosure> {
-    let refinement = &options.refinement;
-    let loop_closure = &options.loop_closure;
     let mut closures = Vec::new();
     for &node in nodes {
-        let (Some(scan), Some(node_in_map)) = (scans.get(node), pose_in_map(node)) else {
-            continue;
-        };
-        let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
-        // The nearest submaps it did not go into, each with the scan's pose in it.
-        let mut near: Vec<(f64, &SlamSubmap, Pose2)> = submaps
-            .iter()
-            .filter(|submap| !(submap.first_node()..=submap.last_node()).contains(&node))
-            .filter_map(|&submap| {
-                let submap_in_map = pose_in_map(submap.first_node())?;
-                let guess = submap_in_map.inverse() * node_in_map;
-                let distance_m = guess.x_m.hypot(guess.y_m);
-                (distance_m <= refinement.max_distance_m).then_some((distance_m, submap, guess))
-            })
-            .collect();
-        near.sort_by(|a, b| a.0.total_cmp(&b.0));
-        near.truncate(refinement.max_submaps_per_scan);
-        for (_, submap, guess) in near {
-            if !may_fit(submap, &points, guess, options) {
-                continue;
-            }
-            let Some(aligned) = align(submap.points(), &points, guess, &loop_closure.icp) else {
-                continue;
-            };
-            if !within_correction(guess, aligned.map_from_robot, refinement) {
-                continue;
-            }
-            let fit = submap.fit(&points, aligned.map_from_robot, loop_closure.icp.inlier_m);
-            if loop_closure.accepts(&fit) {
-                closures.push(FoundClosure {
-                    submap_first_node: submap.first_node(),
-                    node,
-                    pose_in_submap: aligned.map_from_robot,
-                    information_in_robot: Some(aligned.information_in_robot()),
-                });
+        match ahead.closures.get(&node) {
+            Some(found) => closures.extend_from_slice(found),
+            None => {
+                if let Some(scan) = scans.get(node) {
+                    closures.extend(node_closures(&pose_in_map, node, scan, submaps, options));
+                }
             }
         }
     }
     closures
+}
+
+/// The final refinement of the nodes fixed during the run, made as they are fixed rather than
+/// at the end. A node is fixed once every submap it went into has settled
+/// ([`super::settled_submaps`]): later passes agree with its place, and the graph holds it
+/// where it will stay until the end releases it. It is then aligned on the finished submaps
+/// near it, as the end of the run would align it, and keeps those constraints; a later pass's
+/// submap is tied to it by that pass's own nodes. The end of the run is left with the nodes
+/// that never settled: the pass under way and the places seen once.
+#[derive(Debug, Default)]
+pub(crate) struct RefinedAhead {
+    /// For every node aligned ahead: the constraints found (none, when no alignment passed).
+    closures: HashMap<usize, Vec<FoundClosure>>,
+    /// Fixed nodes not yet aligned, in the order they were fixed.
+    pending: VecDeque<usize>,
+}
+
+impl RefinedAhead {
+    /// `node` was fixed: it is to be aligned.
+    pub(crate) fn fixed(&mut self, node: usize) {
+        self.pending.push_back(node);
+    }
+
+    /// Whether a fixed node waits to be aligned.
+    pub(crate) fn has_pending(&self) -> bool {
+        !self.pending.is_empty()
+    }
+
+    /// Nodes aligned ahead so far.
+    pub(crate) fn nodes_aligned(&self) -> usize {
+        self.closures.len()
+    }
+
+    /// Aligns at most `max_nodes` of the pending nodes on the finished `submaps` near them,
+    /// each node and submap frame where `pose_in_map` puts it (the graph as it stands).
+    pub(crate) fn align_pending(
+        &mut self,
+        max_nodes: usize,
+        pose_in_map: impl Fn(usize) -> Option<Pose2>,
+        submaps: &[&SlamSubmap],
+        scans: &[Scan],
+        options: &SlamOptions,
+    ) {
+        for _ in 0..max_nodes {
+            let Some(node) = self.pending.pop_front() else {
+                return;
+            };
+            if let Some(scan) = scans.get(node) {
+                let found = node_closures(&pose_in_map, node, scan, submaps, options);
+                self.closures.insert(node, found);
+            }
+        }
+    }
+}
+
+/// The constraints of `node` (its `scan`) in the nearest `submaps` it did not go into,
+/// within the refinement's distance and at most its number of them, each aligned from the
+/// node's pose in it.
+fn node_closures(
+    pose_in_map: impl Fn(usize) -> Option<Pose2>,
+    node: usize,
+    scan: &Scan,
+    submaps: &[&SlamSubmap],
+    options: &SlamOptions,
+) -> Vec<FoundClosure> {
+    let refinement = &options.refinement;
+    let Some(node_in_map) = pose_in_map(node) else {
+        return Vec::new();
+    };
+    let mut near: Vec<(f64, &SlamSubmap, Pose2)> = submaps
+        .iter()
+        .filter(|submap| !(submap.first_node()..=submap.last_node()).contains(&node))
+        .filter_map(|&submap| {
+            let submap_in_map = pose_in_map(submap.first_node())?;
+            let guess = submap_in_map.inverse() * node_in_map;
+            let distance_m = guess.x_m.hypot(guess.y_m);
+            (distance_m <= refinement.max_distance_m).then_some((distance_m, submap, guess))
+        })
+        .collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    near.truncate(refinement.max_submaps_per_scan);
+    let points: Vec<[f64; 2]> = scan.points_in_robot().iter().flatten().copied().collect();
+    near.into_iter()
+        .filter_map(|(_, submap, guess)| align_on(submap, node, &points, guess, options))
+        .collect()
+}
+
+/// The constraint of `node` (end points `points`) in `submap` aligned from `guess`, when the
+/// alignment stays within the allowed correction and passes the loop closure's test.
+fn align_on(
+    submap: &SlamSubmap,
+    node: usize,
+    points: &[[f64; 2]],
+    guess: Pose2,
+    options: &SlamOptions,
+) -> Option<FoundClosure> {
+    let loop_closure = &options.loop_closure;
+    if !may_fit(submap, points, guess, options) {
+        return None;
+    }
+    let aligned = align(submap.points(), points, guess, &loop_closure.icp)?;
+    if !within_correction(guess, aligned.map_from_robot, &options.refinement) {
+        return None;
+    }
+    let fit = submap.fit(points, aligned.map_from_robot, loop_closure.icp.inlier_m);
+    loop_closure.accepts(&fit).then(|| FoundClosure {
+        submap_first_node: submap.first_node(),
+        node,
+        pose_in_submap: aligned.map_from_robot,
+        information_in_robot: Some(aligned.information_in_robot()),
+    })
 }
 
 /// Whether enough of `points_in_robot` lie near the submap's points at `guess` for an
@@ -132,12 +221,13 @@ mod tests {
     }
 
     /// A finished submap of nodes `0..8`, scanned around the room's middle, and a later node 8
-    /// whose graph pose is `held_pose` while it was truly scanned at `true_pose`.
-    fn closures_for(
+    /// whose graph pose is `held_pose` while it was truly scanned at `true_pose`: the submap,
+    /// every node's pose in the graph and every node's scan.
+    fn room_with_a_later_scan(
         options: &SlamOptions,
         true_pose: Pose2,
         held_pose: Pose2,
-    ) -> Vec<FoundClosure> {
+    ) -> (SlamSubmap, Vec<Pose2>, Vec<Scan>) {
         let mut submap = SlamSubmap::new(Pose2::IDENTITY, 0, options.submap, options.point_map);
         let mut poses_in_map: Vec<Pose2> = (0..8)
             .map(|k| {
@@ -154,13 +244,72 @@ mod tests {
         submap.finish();
         scans.push(room_scan(true_pose));
         poses_in_map.push(held_pose);
+        (submap, poses_in_map, scans)
+    }
+
+    /// The end of the run's constraints for [`room_with_a_later_scan`].
+    fn closures_for(
+        options: &SlamOptions,
+        true_pose: Pose2,
+        held_pose: Pose2,
+    ) -> Vec<FoundClosure> {
+        let (submap, poses_in_map, scans) = room_with_a_later_scan(options, true_pose, held_pose);
         refinement_closures(
             |n| poses_in_map.get(n).copied(),
             &every_node(&scans),
             &[&submap],
             &scans,
             options,
+            &RefinedAhead::default(),
         )
+    }
+
+    #[test]
+    fn a_node_aligned_ahead_keeps_its_constraints_and_is_not_aligned_again() {
+        let options = SlamOptions::default();
+        let true_pose = Pose2::new(0.8, -0.4, 0.2);
+        let held_pose = Pose2::new(0.95, -0.3, 0.22);
+        let (submap, mut poses_in_map, scans) =
+            room_with_a_later_scan(&options, true_pose, held_pose);
+        let mut ahead = RefinedAhead::default();
+        ahead.fixed(8);
+        // No node a call: nothing aligned yet.
+        ahead.align_pending(
+            0,
+            |n| poses_in_map.get(n).copied(),
+            &[&submap],
+            &scans,
+            &options,
+        );
+        assert_eq!(ahead.nodes_aligned(), 0);
+        // Aligned while the graph holds node 8 near where it was scanned.
+        ahead.align_pending(
+            5,
+            |n| poses_in_map.get(n).copied(),
+            &[&submap],
+            &scans,
+            &options,
+        );
+        assert_eq!(ahead.nodes_aligned(), 1);
+        // The end of the run then holds it beyond the allowed correction: aligned there, it
+        // would be left to the graph.
+        poses_in_map[8] = true_pose * Pose2::new(0.0, 0.0, 6f64.to_radians());
+        let at_end = |ahead: &RefinedAhead| {
+            refinement_closures(
+                |n| poses_in_map.get(n).copied(),
+                &every_node(&scans),
+                &[&submap],
+                &scans,
+                &options,
+                ahead,
+            )
+        };
+        assert!(at_end(&RefinedAhead::default()).is_empty());
+        let kept = at_end(&ahead);
+        assert_eq!(kept.len(), 1, "{kept:?}");
+        assert_eq!((kept[0].submap_first_node, kept[0].node), (0, 8));
+        let error = true_pose.inverse() * kept[0].pose_in_submap;
+        assert!(error.x_m.hypot(error.y_m) < 0.01, "{error:?}");
     }
 
     #[test]
@@ -222,6 +371,7 @@ mod tests {
             &submaps,
             &scans,
             &options,
+            &RefinedAhead::default(),
         );
         let mut of_last: Vec<usize> = closures
             .iter()

@@ -9,7 +9,7 @@ use super::chain_closer::{ChainCloser, ChainContext};
 use super::closure_confirmation::{ClosureConfirmation, FoundClosure};
 use super::closure_gain::closure_gain_nats;
 use super::degeneracy::{closure_information, consecutive_information};
-use super::final_refinement::refinement_closures;
+use super::final_refinement::{RefinedAhead, refinement_closures};
 use super::local_tracker::LocalTracker;
 use super::loop_closer::{LoopCloser, LoopClosure};
 use super::node_index::NodeIndex;
@@ -81,6 +81,9 @@ pub struct SlamStats {
     pub closures_within_uncertainty: usize,
     /// Constraints added by the final refinement.
     pub refinement_constraints: usize,
+    /// Nodes the final refinement aligned during the run, as their places settled, rather
+    /// than at its end ([`super::final_refinement`]).
+    pub nodes_refined_ahead: usize,
     /// Pose-graph optimisations run.
     pub optimizations: usize,
     /// Optimisations that failed (the poses were kept as they were).
@@ -217,6 +220,8 @@ pub struct GraphSlam {
     settled: SettledSubmaps,
     /// The nodes fixed during the run, in the order they were fixed.
     settled_nodes: Vec<usize>,
+    /// The final refinement of the nodes fixed during the run, made as they were fixed.
+    refined_ahead: RefinedAhead,
     /// Where the nodes lie, for the chain search's nearest node.
     node_index: NodeIndex,
     stats: SlamStats,
@@ -265,6 +270,7 @@ impl GraphSlam {
             unrobust_edges: Vec::new(),
             settled: SettledSubmaps::new(options.settle.clone()),
             settled_nodes: Vec::new(),
+            refined_ahead: RefinedAhead::default(),
             node_index: NodeIndex::new(options.chain_closure.search.max_distance_m.max(1.0)),
             stats: SlamStats::default(),
             timings: SlamTimings::default(),
@@ -432,6 +438,7 @@ impl GraphSlam {
             self.optimize();
         }
         self.settle(node, self.stats.optimizations > optimizations);
+        self.refine_ahead();
         self.node_pose_in_map(node).unwrap_or(pose_in_map)
     }
 
@@ -1081,12 +1088,34 @@ impl GraphSlam {
         for settled in ready {
             if self.graph.set_fixed(NodeId(settled), true).is_ok() {
                 self.settled_nodes.push(settled);
+                self.refined_ahead.fixed(settled);
                 if let Some(pose) = self.node_pose_in_map(settled) {
                     self.node_index.fix(settled, pose);
                 }
             }
         }
         self.timings.settling_s += seconds_since(started);
+    }
+
+    /// Aligns the nodes fixed since as the final refinement would, a few a call
+    /// ([`RefinedAhead`]), so that the end of the run is left with the nodes that never
+    /// settled.
+    fn refine_ahead(&mut self) {
+        if !self.options.refinement.enabled || !self.refined_ahead.has_pending() {
+            return;
+        }
+        let started = Instant::now();
+        let submaps: Vec<&SlamSubmap> = self.finished.iter().map(|(submap, _)| submap).collect();
+        let nodes = self.graph.nodes();
+        self.refined_ahead.align_pending(
+            self.options.refinement.nodes_ahead_per_node,
+            |node| nodes.get(node).map(|n| n.pose_in_map),
+            &submaps,
+            &self.scans,
+            &self.options,
+        );
+        self.stats.nodes_refined_ahead = self.refined_ahead.nodes_aligned();
+        self.timings.refining_ahead_s += seconds_since(started);
     }
 
     /// Adds the final refinement's constraints (`active`: the submaps still active at the
@@ -1105,6 +1134,7 @@ impl GraphSlam {
             &submaps,
             &self.scans,
             &self.options,
+            &self.refined_ahead,
         );
         for closure in closures {
             if self.add_constraint(closure, false).is_some() {

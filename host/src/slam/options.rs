@@ -542,6 +542,10 @@ pub struct RefinementOptions {
     /// a place seen on many laps has a submap per lap, and a few of them tie the scan to the
     /// map as well as all of them.
     pub max_submaps_per_scan: usize,
+    /// Nodes fixed during the run whose alignments are made ahead, at most, each time a node
+    /// is added ([`super::final_refinement::RefinedAhead`]): a place that settles fixes many
+    /// nodes at once, and their alignments are spread over the nodes that follow.
+    pub nodes_ahead_per_node: usize,
 }
 
 impl Default for RefinementOptions {
@@ -552,6 +556,7 @@ impl Default for RefinementOptions {
             max_correction_m: 0.5,
             max_correction_rad: 3f64.to_radians(),
             max_submaps_per_scan: 10,
+            nodes_ahead_per_node: 2,
         }
     }
 }

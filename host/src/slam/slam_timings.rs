@@ -25,6 +25,9 @@ pub struct SlamTimings {
     /// Settling places during the run ([`super::settled_submaps`]): testing which submaps
     /// settled, and fixing their nodes.
     pub settling_s: f64,
+    /// The final refinement's alignments made during the run, as places settle
+    /// ([`super::final_refinement`]).
+    pub refining_ahead_s: f64,
     /// The end of the run: the last optimisation, with every node free, and the final
     /// refinement.
     pub finish_s: f64,
@@ -40,6 +43,7 @@ impl SlamTimings {
             closure_searches_s: self.closure_searches_s - earlier.closure_searches_s,
             optimization_s: self.optimization_s - earlier.optimization_s,
             settling_s: self.settling_s - earlier.settling_s,
+            refining_ahead_s: self.refining_ahead_s - earlier.refining_ahead_s,
             finish_s: self.finish_s - earlier.finish_s,
         }
     }
