@@ -10,8 +10,8 @@
 //!   grid, every scan inserted at its optimised pose;
 //! * `summary.json`: `scans`, `wall_s` (the SLAM's own time: tracking, loop closure, pose
 //!   graph, not reading the log or writing the map), `scans_per_second`, `timing` (per-scan
-//!   percentiles, the run's end, and the last 1 000 scans against the first), what the pipeline
-//!   did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
+//!   percentiles, the run's end, and the last 1 000 scans against the first), `slam_parts_s`
+//!   (the SLAM's time by part, [`host::slam::SlamTimings`]), what the pipeline did, and the error on each set of relations given ([`host::evaluation`], Kümmerle et al.
 //!   2009); for a relations file, also which of its relations the log's own scans dispute and
 //!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]);
 //! * with [`SlamReplayOptions::check_tracking`] and a reference, `tracking_check.tsv`: for
@@ -150,7 +150,8 @@ pub struct ScanTiming {
     pub scan_p99_ms: f64,
     /// The longest time to add one scan, milliseconds.
     pub scan_max_ms: f64,
-    /// The end of the run: the last optimisation and the final refinement, seconds.
+    /// The end of the run: the last optimisation and the final refinement of the nodes not
+    /// aligned during the run, seconds.
     pub finish_s: f64,
     /// Seconds the first 1 000 scans took (all of them in a shorter log).
     pub first_1000_scans_s: f64,

@@ -67,8 +67,8 @@ pub struct ReplayCarmenArgs {
     /// confirmed by two more).
     #[arg(long)]
     no_weak_closures: bool,
-    /// Skip the final refinement (every scan aligned on the submaps near it once the run
-    /// is over).
+    /// Skip the final refinement (every scan aligned on the submaps near it, as its place
+    /// settles or once the run is over).
     #[arg(long)]
     no_refinement: bool,
     /// Keep every node of the pose graph free during the run: no place settles (see

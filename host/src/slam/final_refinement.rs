@@ -1,9 +1,10 @@
-//! The end of a run: every scan aligned on the finished submaps near it.
+//! The final refinement: every scan aligned on the finished submaps near it, as its place
+//! settles or at the end of the run.
 //!
 //! During the run, loop closure searches only every few scans, and a scan is tied to the
 //! submaps it went into only through the chain of consecutive-scan constraints. Once the run
 //! is over and the graph optimised (every node free again, [`super::settled_submaps`]),
-//! every scan is aligned by point-to-line ICP on the finished submaps it did not go into
+//! every scan not aligned during the run (below) is aligned by point-to-line ICP on the finished submaps it did not go into
 //! whose frames lie within [`RefinementOptions::max_distance_m`] (the nearest few, see
 //! below), starting from their relative pose in the graph. An alignment that moves the scan
 //! by at most [`RefinementOptions::max_correction_m`] and
@@ -13,7 +14,8 @@
 //! closure happened to search from it.
 //!
 //! No wide search runs here: the graph already holds the loops that loop closure found, and a
-//! scan the graph places more than [`RefinementOptions::max_correction_m`] off is left to it.
+//! scan the graph places more than [`RefinementOptions::max_correction_m`] off (when it is
+//! aligned) is left to it.
 //!
 //! A place mapped on every lap of a long run lies in a submap per lap: each scan is tried on
 //! at most [`RefinementOptions::max_submaps_per_scan`] of them, the nearest, so that the
@@ -21,7 +23,11 @@
 //!
 //! A scan whose place settled during the run ([`RefinedAhead`]) is aligned then, a few nodes
 //! for every node added, rather than at the end: the end aligns the scans of the places that
-//! never settled, the free part of the graph, and not every scan of the run.
+//! never settled (the free part of the graph) and the few fixed ones not yet reached, not
+//! every scan of the run. Such a scan is aligned from the graph's poses of that time, on the
+//! submaps finished by then, and the constraints it gave then (or none) are what it keeps:
+//! the end does not check them against its own poses, nor try it again on the submaps of
+//! later passes, whose own scans tie them to it.
 
 use std::collections::{HashMap, VecDeque};
 
@@ -65,7 +71,8 @@ pub(crate) fn refinement_closures(
 /// where it will stay until the end releases it. It is then aligned on the finished submaps
 /// near it, as the end of the run would align it, and keeps those constraints; a later pass's
 /// submap is tied to it by that pass's own nodes. The end of the run is left with the nodes
-/// that never settled: the pass under way and the places seen once.
+/// that never settled (the pass under way and the places seen once), and the fixed ones not
+/// yet reached.
 #[derive(Debug, Default)]
 pub(crate) struct RefinedAhead {
     /// For every node aligned ahead: the constraints found (none, when no alignment passed).

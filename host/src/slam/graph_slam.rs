@@ -1088,7 +1088,9 @@ impl GraphSlam {
         for settled in ready {
             if self.graph.set_fixed(NodeId(settled), true).is_ok() {
                 self.settled_nodes.push(settled);
-                self.refined_ahead.fixed(settled);
+                if self.options.refinement.enabled {
+                    self.refined_ahead.fixed(settled);
+                }
                 if let Some(pose) = self.node_pose_in_map(settled) {
                     self.node_index.fix(settled, pose);
                 }
@@ -1668,6 +1670,9 @@ mod tests {
             free < slam.graph.nodes().len() / 2,
             "{free} free: {stats:?}"
         );
+        // The settled places were refined as they settled, not left to the end.
+        assert!(stats.nodes_refined_ahead > 0, "{stats:?}");
+        assert!(slam.timings().refining_ahead_s > 0.0);
         let result = slam.finish();
         // Every part of the run was timed, each apart.
         let parts = result.timings;

@@ -37,8 +37,9 @@
 //!   is fixed, and during the run the solves and the relative covariances work on
 //!   the free part of the graph only, which follows the places not yet settled rather than
 //!   the time spent. The last solve releases them.
-//! * **Final refinement** ([`final_refinement`]): at the end of a run, every scan is aligned
-//!   on the finished submaps near it, and the alignments that fit become constraints too.
+//! * **Final refinement** ([`final_refinement`]): every scan is aligned on the finished
+//!   submaps near it, as its place settles or at the end of the run, and the alignments that
+//!   fit become constraints for the end's last solve.
 //!
 //! [`GraphSlam`] runs the whole, [`GraphSlam::finish`] refines and returns the optimised poses and
 //! [`SlamResult::global_grid`] draws the global map from them. [`GridPipeline`] is the method as

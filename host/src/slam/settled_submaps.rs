@@ -21,9 +21,10 @@
 //! graph: loop closure searches their submaps as before, and a closure on them pins the free
 //! scans of the pass under way. During the run the solver works on the free nodes only, and
 //! the relative covariances walk the free part and treat the fixed nodes as one rigid
-//! reference. At the end of the run every node is released for the last solve and the final
-//! refinement ([`super::final_refinement`]), so that what later passes told about a settled
-//! place still moves it.
+//! reference. At the end of the run every node is released for the last solve, so that what
+//! later passes told about a settled place still moves it. A node's final refinement
+//! ([`super::final_refinement`]) is made when it is fixed, and its constraints wait for that
+//! solve.
 //!
 //! A loop that closes for the first time is solved with every node of it free: its submaps
 //! settle only after the solve that made the graph agree with their closures. During the run,

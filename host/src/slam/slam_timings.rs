@@ -29,7 +29,7 @@ pub struct SlamTimings {
     /// ([`super::final_refinement`]).
     pub refining_ahead_s: f64,
     /// The end of the run: the last optimisation, with every node free, and the final
-    /// refinement.
+    /// refinement of the nodes not aligned during the run.
     pub finish_s: f64,
 }
 
