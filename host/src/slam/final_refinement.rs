@@ -4,8 +4,8 @@
 //! During the run, loop closure searches only every few scans, and a scan is tied to the
 //! submaps it went into only through the chain of consecutive-scan constraints. Once the run
 //! is over and the graph optimised (every node free again, [`super::settled_submaps`]),
-//! every scan not aligned during the run (below) is aligned by point-to-line ICP on the finished submaps it did not go into
-//! whose frames lie within [`RefinementOptions::max_distance_m`] (the nearest few, see
+//! every scan not aligned during the run (below) is aligned by point-to-line ICP on the
+//! finished submaps it did not go into whose frames lie within [`RefinementOptions::max_distance_m`] (the nearest few, see
 //! below), starting from their relative pose in the graph. An alignment that moves the scan
 //! by at most [`RefinementOptions::max_correction_m`] and
 //! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
@@ -280,23 +280,15 @@ mod tests {
             room_with_a_later_scan(&options, true_pose, held_pose);
         let mut ahead = RefinedAhead::default();
         ahead.fixed(8);
+        let align_ahead = |ahead: &mut RefinedAhead, max_nodes: usize| {
+            let pose_in_map = |n: usize| poses_in_map.get(n).copied();
+            ahead.align_pending(max_nodes, pose_in_map, &[&submap], &scans, &options);
+        };
         // No node a call: nothing aligned yet.
-        ahead.align_pending(
-            0,
-            |n| poses_in_map.get(n).copied(),
-            &[&submap],
-            &scans,
-            &options,
-        );
+        align_ahead(&mut ahead, 0);
         assert_eq!(ahead.nodes_aligned(), 0);
         // Aligned while the graph holds node 8 near where it was scanned.
-        ahead.align_pending(
-            5,
-            |n| poses_in_map.get(n).copied(),
-            &[&submap],
-            &scans,
-            &options,
-        );
+        align_ahead(&mut ahead, 5);
         assert_eq!(ahead.nodes_aligned(), 1);
         // The end of the run then holds it beyond the allowed correction: aligned there, it
         // would be left to the graph.

@@ -126,7 +126,8 @@ impl GridPipeline {
     }
 
     /// Ends the run: the SLAM's final refinement (every node not aligned as its place settled
-    /// aligned on the submaps near it, [`GraphSlam::finish`]) and its last optimisation, with every node free. Scans that come later are not used.
+    /// aligned on the submaps near it, [`GraphSlam::finish`]) and its last optimisation, with
+    /// every node free. Scans that come later are not used.
     pub fn finish(&mut self) {
         if let Some(slam) = self.slam.take() {
             let result = slam.finish();

@@ -525,8 +525,8 @@ impl Default for RelocalisationOptions {
 }
 
 /// How every scan is aligned on the finished submaps near it, as its place settles or once
-/// the run is over ([`super::final_refinement`]). An alignment runs the loop closure's ICP and is accepted by
-/// its test ([`LoopClosureOptions::accepts`]).
+/// the run is over ([`super::final_refinement`]). An alignment runs the loop closure's ICP
+/// and is accepted by its test ([`LoopClosureOptions::accepts`]).
 #[derive(Clone, Debug)]
 pub struct RefinementOptions {
     /// Whether to run it at all.
