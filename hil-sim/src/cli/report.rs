@@ -28,6 +28,17 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             .peak_resident_mib
             .map_or("not known".to_string(), |mib| format!("{mib:.0} MiB")),
     );
+    if timing.mean_ms_by_tenth.len() > 1 {
+        let tenths: Vec<String> = timing
+            .mean_ms_by_tenth
+            .iter()
+            .map(|ms| format!("{ms:.2}"))
+            .collect();
+        eprintln!(
+            "hil-sim: per scan over each tenth of the run, ms: {}",
+            tenths.join(" ")
+        );
+    }
     if let (Some(frames), Some(camera)) = (&timing.camera_frames, &summary.camera) {
         let metres = |v: Option<f64>| v.map_or("—".to_string(), |m| format!("{m:.2} m"));
         eprintln!(

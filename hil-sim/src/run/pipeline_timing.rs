@@ -28,6 +28,10 @@ pub struct PipelineTiming {
     pub first_1000_mean_ms: f64,
     /// See [`Self::first_1000_mean_ms`].
     pub last_1000_mean_ms: f64,
+    /// Mean per scan over each tenth of the run in turn (fewer parts when there are fewer
+    /// than ten scans), milliseconds: whether a scan costs more as the map grows, or only
+    /// once there are places to recognise (the first 1 000 scans have none).
+    pub mean_ms_by_tenth: Vec<f64>,
     /// The largest resident memory of the process the run is in at any time, MiB: the
     /// kernel's high-water mark (`VmHWM`), read at the end. It holds the emulated sensors, the
     /// host pipeline and the firmware when it runs on the host (not under `--qemu` or on
@@ -82,6 +86,9 @@ impl PipelineTiming {
             max_ms: quantile(1.0),
             first_1000_mean_ms: mean(&step_us[..window]),
             last_1000_mean_ms: mean(&step_us[step_us.len() - window..]),
+            mean_ms_by_tenth: tenths(step_us.len())
+                .map(|range| mean(&step_us[range]))
+                .collect(),
             peak_resident_mib: None,
             slam_parts_s: None,
             slam_parts_first_1000_s: None,
@@ -91,6 +98,13 @@ impl PipelineTiming {
             camera_frames: None,
         }
     }
+}
+
+/// The scans of each tenth of a run of `scans`, in order: ten ranges as equal as whole scans
+/// allow (as many as there are scans when there are fewer than ten).
+fn tenths(scans: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let parts = scans.min(10);
+    (0..parts).map(move |k| k * scans / parts..(k + 1) * scans / parts)
 }
 
 /// This process's peak resident memory so far, MiB (`VmHWM` of `/proc/self/status`); `None`
@@ -134,6 +148,26 @@ mod tests {
         let after = peak_resident_mib().unwrap_or(0.0);
         assert!(after >= peak_mib.max(64.0), "{after} MiB after 64 MiB held");
         drop(held);
+    }
+
+    #[test]
+    fn tenths_cover_every_scan_once_in_order() {
+        for scans in [1, 7, 10, 11, 999, 134_893] {
+            let ranges: Vec<_> = tenths(scans).collect();
+            assert_eq!(ranges.len(), scans.min(10));
+            assert_eq!(ranges[0].start, 0);
+            assert_eq!(ranges[ranges.len() - 1].end, scans);
+            for pair in ranges.windows(2) {
+                assert_eq!(pair[0].end, pair[1].start);
+            }
+            assert!(ranges.iter().all(|range| !range.is_empty()));
+        }
+        let steps: Vec<u32> = (0..20).map(|k| if k < 10 { 1000 } else { 2000 }).collect();
+        let timing = PipelineTiming::from_step_times(&steps);
+        assert_eq!(
+            timing.mean_ms_by_tenth,
+            [1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0, 2.0]
+        );
     }
 
     #[test]
