@@ -106,7 +106,13 @@ fn epipolar_segment(
 
 /// The distance from `p` to the polyline, px.
 fn distance_to(polyline: &[[f64; 2]], p: [f64; 2]) -> f64 {
-    let point = |a: [f64; 2]| (a[0] - p[0]).hypot(a[1] - p[1]);
+    squared_distance_to(polyline, p).sqrt()
+}
+
+/// The squared distance from `p` to the polyline, px²: what a search's test of every pixel
+/// of its box compares, without a root per pixel.
+fn squared_distance_to(polyline: &[[f64; 2]], p: [f64; 2]) -> f64 {
+    let point = |a: [f64; 2]| (a[0] - p[0]).powi(2) + (a[1] - p[1]).powi(2);
     let mut best = polyline.first().map_or(f64::INFINITY, |&a| point(a));
     for pair in polyline.windows(2) {
         let (a, b) = (pair[0], pair[1]);
@@ -195,7 +201,8 @@ pub fn classify(
     };
     let near_segment = |limit: f64| {
         let segment = &segment;
-        move |p: [i64; 2]| distance_to(segment, [p[0] as f64, p[1] as f64]) <= limit
+        let limit_px2 = limit * limit;
+        move |p: [i64; 2]| squared_distance_to(segment, [p[0] as f64, p[1] as f64]) <= limit_px2
     };
     let on_segment = search(&template, previous, bounds(band_px), near_segment(band_px));
     if on_segment.is_some_and(|(_, score)| score >= options.min_static_correlation) {
