@@ -853,7 +853,14 @@ impl MonoSlam {
         }
         let margin = i64::from(2 * self.options.patch_half_px + 2) + 1;
         let mut best: Vec<Option<imageproc::corners::Corner>> = vec![None; occupied.len()];
-        for corner in imageproc::corners::corners_fast9(image, self.options.fast_threshold) {
+        let found = empty_cells_corners(
+            image,
+            &occupied,
+            columns as usize,
+            cell_of,
+            self.options.fast_threshold,
+        );
+        for corner in found {
             let (x, y) = (i64::from(corner.x), i64::from(corner.y));
             if x < margin
                 || y < margin
@@ -916,6 +923,67 @@ impl MonoSlam {
         }
         added
     }
+}
+
+/// The FAST-9 corners of `image` at `threshold` in the grid cells that `occupied` does not
+/// mark (`cell_of` gives a pixel's cell, row-major over `columns` a row), in image
+/// coordinates: what detecting over the whole image and keeping those cells finds, found on
+/// the empty cells alone, each cell's corners in row-major order. A corner's test reads the
+/// circle of radius 3 around it, so each cell is cut out with 3 pixels more on every side
+/// (the image's own border of 3 stays out, as it does over the whole image).
+fn empty_cells_corners(
+    image: &GrayImage,
+    occupied: &[bool],
+    columns: usize,
+    cell_of: impl Fn([f64; 2]) -> Option<usize>,
+    threshold: u8,
+) -> Vec<imageproc::corners::Corner> {
+    const RADIUS: u32 = 3;
+    let (width, height) = image.dimensions();
+    // Each column's and each row's pixels, by the cell `cell_of` puts them in (the cell of
+    // a pixel is its column's and its row's).
+    let spans = |length: u32, cell_along: &dyn Fn(u32) -> Option<usize>| {
+        let mut spans: Vec<(usize, u32, u32)> = Vec::new();
+        for at in 0..length {
+            let Some(index) = cell_along(at) else {
+                continue;
+            };
+            match spans.last_mut() {
+                Some((last, _, end)) if *last == index && *end == at => *end = at + 1,
+                _ => spans.push((index, at, at + 1)),
+            }
+        }
+        spans
+    };
+    let column_spans = spans(width, &|x| {
+        cell_of([f64::from(x), 0.0]).map(|c| c % columns)
+    });
+    let row_spans = spans(height, &|y| {
+        cell_of([0.0, f64::from(y)]).map(|c| c / columns)
+    });
+    let mut found = Vec::new();
+    for &(row, y0, y1) in &row_spans {
+        for &(column, x0, x1) in &column_spans {
+            if occupied
+                .get(row * columns + column)
+                .is_none_or(|&taken| taken)
+            {
+                continue;
+            }
+            let (left, top) = (x0.saturating_sub(RADIUS), y0.saturating_sub(RADIUS));
+            let (right, bottom) = ((x1 + RADIUS).min(width), (y1 + RADIUS).min(height));
+            let crop =
+                image::imageops::crop_imm(image, left, top, right - left, bottom - top).to_image();
+            for mut corner in imageproc::corners::corners_fast9(&crop, threshold) {
+                corner.x += left;
+                corner.y += top;
+                if (x0..x1).contains(&corner.x) && (y0..y1).contains(&corner.y) {
+                    found.push(corner);
+                }
+            }
+        }
+    }
+    found
 }
 
 /// The place test's consensus: each match in turn updates a copy of `filter` alone, and
@@ -1110,6 +1178,46 @@ fn one_point_ransac(
 mod tests {
     use super::*;
     use crate::camera::known_target::TargetCorner;
+
+    #[test]
+    fn corners_of_the_empty_cells_are_those_of_the_whole_image_there() {
+        // Blocks of pseudo-random grey, so that FAST finds corners everywhere, on an image
+        // whose size the grid does not divide.
+        let (width, height) = (203u32, 151u32);
+        let mut state = 12_345u32;
+        let block: Vec<u8> = (0..(width / 3 + 1) * (height / 3 + 1))
+            .map(|_| {
+                state = state.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                (state >> 24) as u8
+            })
+            .collect();
+        let image = GrayImage::from_fn(width, height, |x, y| {
+            image::Luma([block[((y / 3) * (width / 3 + 1) + x / 3) as usize]])
+        });
+        let [columns, rows] = [8usize, 6usize];
+        let cell_of = |p: [f64; 2]| -> Option<usize> {
+            let c = (p[0] / f64::from(width) * columns as f64) as usize;
+            let r = (p[1] / f64::from(height) * rows as f64) as usize;
+            Some(r.min(rows - 1) * columns + c.min(columns - 1))
+        };
+        let occupied: Vec<bool> = (0..columns * rows).map(|cell| cell % 3 == 1).collect();
+        let key = |c: &imageproc::corners::Corner| (c.x, c.y, c.score.to_bits());
+        let mut expected: Vec<_> = imageproc::corners::corners_fast9(&image, 20)
+            .iter()
+            .filter(|c| {
+                cell_of([f64::from(c.x), f64::from(c.y)]).is_some_and(|cell| !occupied[cell])
+            })
+            .map(key)
+            .collect();
+        let mut found: Vec<_> = empty_cells_corners(&image, &occupied, columns, cell_of, 20)
+            .iter()
+            .map(key)
+            .collect();
+        assert!(expected.len() > 100, "{}", expected.len());
+        expected.sort_unstable();
+        found.sort_unstable();
+        assert_eq!(found, expected);
+    }
 
     /// Random grey blocks of 6 cm, blended at their edges: a textured wall.
     fn wall(x_m: f64, y_m: f64) -> f64 {
