@@ -12,7 +12,8 @@
 //!   graph, not reading the log or writing the map), `scans_per_second`, `timing` (per-scan
 //!   percentiles, the run's end, and the last 1 000 scans against the first), `slam_parts_s`
 //!   (the SLAM's time by part, [`host::slam::SlamTimings`]), what the pipeline did, and the
-//!   error on each set of relations given ([`host::evaluation`], Kümmerle et al. 2009); for a relations file, also which of its relations the log's own scans dispute and
+//!   error on each set of relations given ([`host::evaluation`], Kümmerle et al. 2009); for
+//!   a relations file, also which of its relations the log's own scans dispute and
 //!   the error without them (`relations_agreement`, [`host::evaluation::AgreementReport`]);
 //! * with [`SlamReplayOptions::check_tracking`] and a reference, `tracking_check.tsv`: for
 //!   every scan, the motion tracking chose and the reference's, each with its score as a

@@ -5,9 +5,10 @@
 //! submaps it went into only through the chain of consecutive-scan constraints. Once the run
 //! is over and the graph optimised (every node free again, [`super::settled_submaps`]),
 //! every scan not aligned during the run (below) is aligned by point-to-line ICP on the
-//! finished submaps it did not go into whose frames lie within [`RefinementOptions::max_distance_m`] (the nearest few, see
-//! below), starting from their relative pose in the graph. An alignment that moves the scan
-//! by at most [`RefinementOptions::max_correction_m`] and
+//! finished submaps it did not go into whose frames lie within
+//! [`RefinementOptions::max_distance_m`] (the nearest few, see below), starting from their
+//! relative pose in the graph. An alignment that moves the scan by at most
+//! [`RefinementOptions::max_correction_m`] and
 //! [`RefinementOptions::max_correction_rad`] and passes the loop closure's acceptance test
 //! becomes a constraint like a loop closure's, and the graph is optimised once more. Every
 //! place seen again is then tied to the submaps that saw it, not only to the ones loop
