@@ -91,3 +91,26 @@ fn the_camera_method_is_refused_indoors() {
     assert!(error.to_string().contains("outdoors"), "{error}");
     assert!(!options.out.exists());
 }
+
+#[test]
+fn fused_fixes_correct_the_camera_method_and_keep_its_scale() {
+    let mut options = options(WorldKind::Outdoor, "fused");
+    if let Some(camera) = options.camera.as_mut() {
+        camera.fuse_gps = true;
+    }
+    let summary = run(&options).expect("run");
+    assert!(summary.accounting_balanced, "{summary:#?}");
+    let camera = summary.camera.as_ref().expect("the camera method ran");
+    // Fixes are fused once the map is aligned (the fixes span 20 m), and most of them then.
+    assert!(camera.fixes_fused > 40, "{camera:?}");
+    assert!(
+        camera.fixes_fused + camera.fixes_gated <= camera.fixes_paired,
+        "{camera:?}"
+    );
+    assert!(
+        camera.scale_error.expect("both scales").abs() < 0.01,
+        "{camera:?}"
+    );
+    assert!(camera.rms_position_m.expect("aligned") < 1.0, "{camera:?}");
+    let _ = fs::remove_dir_all(&options.out);
+}

@@ -459,6 +459,7 @@ fn set_camera(config: &mut DaemonConfig, camera: &CameraRunOptions) {
     config.camera.set_model(&camera.rig.camera);
     config.camera.tilt_sigma_deg = LevelPrior::tilt_deg(camera.level);
     config.camera.sideslip_sigma_deg = ForwardMotionPrior::sideslip_deg(camera.forward_motion);
+    config.camera.fuse_gps = camera.fuse_gps;
 }
 
 /// Renders the world from above and writes it as a GeoTIFF in WGS84 latitude/longitude.

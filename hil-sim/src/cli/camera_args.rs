@@ -38,6 +38,11 @@ pub struct CameraArgs {
     /// any direction (`--method camera`).
     #[arg(long)]
     camera_sideslip_deg: Option<f64>,
+    /// Fuse the GPS fixes into the camera method's filter: once the fixes have aligned the
+    /// map, each corrects the camera's position and, through it, its velocity, map and
+    /// scale. Without it the fixes only place the camera's path (`--method camera`).
+    #[arg(long)]
+    camera_fuse_gps: bool,
 }
 
 /// The camera method's level prior for `--camera-tilt-deg` (`None`: the default).
@@ -79,11 +84,12 @@ impl CameraArgs {
             && (self.movers > 0
                 || self.camera_rate.is_some()
                 || self.camera_tilt_deg.is_some()
-                || self.camera_sideslip_deg.is_some())
+                || self.camera_sideslip_deg.is_some()
+                || self.camera_fuse_gps)
         {
             return Err(
-                "--movers, --camera-rate, --camera-tilt-deg and --camera-sideslip-deg are \
-                        the camera's: they need --method camera"
+                "--movers, --camera-rate, --camera-tilt-deg, --camera-sideslip-deg and \
+                        --camera-fuse-gps are the camera's: they need --method camera"
                     .into(),
             );
         }
@@ -96,6 +102,7 @@ impl CameraArgs {
             movers: self.movers,
             level,
             forward_motion,
+            fuse_gps: self.camera_fuse_gps,
             ..CameraRunOptions::default()
         }))
     }

@@ -27,6 +27,9 @@ pub struct CameraRunOptions {
     /// How the camera method holds the camera's motion to its optical axis (`None`: it
     /// does not).
     pub forward_motion: Option<ForwardMotionPrior>,
+    /// Whether the camera method fuses the GPS fixes into its filter
+    /// ([`host::camera::CameraPipelineOptions::fuse_gps`]).
+    pub fuse_gps: bool,
 }
 
 impl Default for CameraRunOptions {
@@ -41,6 +44,7 @@ impl Default for CameraRunOptions {
             forward_motion: host::camera::CameraPipelineOptions::default()
                 .slam
                 .forward_motion,
+            fuse_gps: host::camera::CameraPipelineOptions::default().fuse_gps,
         }
     }
 }
@@ -72,6 +76,7 @@ pub struct CameraFeed {
     camera: PinholeCamera,
     level: Option<LevelPrior>,
     forward_motion: Option<ForwardMotionPrior>,
+    fuse_gps: bool,
     period_us: f64,
     next_frame: u64,
     /// The renderer's frames; it stops when this end is dropped.
@@ -104,6 +109,7 @@ impl CameraFeed {
             camera,
             level: options.level,
             forward_motion: options.forward_motion,
+            fuse_gps: options.fuse_gps,
             period_us,
             next_frame: 0,
             frames,
@@ -124,6 +130,11 @@ impl CameraFeed {
     /// does not).
     pub fn forward_motion(&self) -> Option<ForwardMotionPrior> {
         self.forward_motion
+    }
+
+    /// Whether the camera method fuses the GPS fixes into its filter.
+    pub fn fuse_gps(&self) -> bool {
+        self.fuse_gps
     }
 
     /// The next frame if its time is at or before `t_us`.

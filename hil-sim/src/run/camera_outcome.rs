@@ -19,6 +19,13 @@ pub struct CameraOutcome {
     pub frames: usize,
     /// GPS fixes paired with the camera's path.
     pub fixes_paired: usize,
+    /// Of them, those fused into the camera method's filter (`--camera-fuse-gps`), and
+    /// those left out as further from its estimate than the two covariances allow.
+    pub fixes_fused: usize,
+    pub fixes_gated: usize,
+    /// Times the filter's camera covariance was widened after fixes in a row lay beyond
+    /// the gate.
+    pub filter_widened: usize,
     /// Whether the fixes put the camera's map into the world (GPS) frame.
     pub geo_referenced: bool,
     /// Metres per unit of the camera's map, from GPS.
@@ -71,6 +78,9 @@ impl CameraOutcome {
         let mut outcome = CameraOutcome {
             frames: records.len(),
             fixes_paired: pipeline.stats().fixes_paired,
+            fixes_fused: pipeline.stats().fixes_fused,
+            fixes_gated: pipeline.stats().fixes_gated,
+            filter_widened: pipeline.stats().filter_widened,
             geo_referenced: alignment.is_some(),
             scale_from_gps: alignment.map(|a| a.scale),
             scale_sigma_from_gps: alignment.map(|a| a.scale_sigma),

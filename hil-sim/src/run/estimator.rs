@@ -60,8 +60,8 @@ impl Estimator {
     }
 
     /// The camera method with `camera`, held `level` (`None`: not held level), its motion
-    /// held to its optical axis by `forward_motion` (`None`: not), its local metric frame at
-    /// `datum_lat_lon_deg`.
+    /// held to its optical axis by `forward_motion` (`None`: not), the fixes fused into its
+    /// filter with `fuse_gps`, its local metric frame at `datum_lat_lon_deg`.
     ///
     /// # Errors
     /// The datum is not a latitude and longitude.
@@ -69,11 +69,13 @@ impl Estimator {
         camera: PinholeCamera,
         level: Option<LevelPrior>,
         forward_motion: Option<ForwardMotionPrior>,
+        fuse_gps: bool,
         datum_lat_lon_deg: [f64; 2],
     ) -> io::Result<Estimator> {
         let defaults = CameraPipelineOptions::default();
         let options = CameraPipelineOptions {
             datum_lat_lon_deg: Some(datum_lat_lon_deg),
+            fuse_gps,
             slam: MonoSlamOptions {
                 level,
                 forward_motion,

@@ -573,6 +573,7 @@ fn execute(
             *camera.camera(),
             camera.level(),
             camera.forward_motion(),
+            camera.fuse_gps(),
             datum,
         )?
     } else if chain.uses_landmarks {

@@ -290,6 +290,10 @@ pub struct CameraConfig {
     /// velocity to it (`host::camera::ForwardMotionPrior`, 3° suits a camera ahead of the
     /// robot's axle). 0 (the default): the camera may move in any direction.
     pub sideslip_sigma_deg: f64,
+    /// Fuse the GPS fixes into the camera method's filter
+    /// (`host::camera::CameraPipelineOptions::fuse_gps`); false (the default): the fixes only
+    /// place the camera's path.
+    pub fuse_gps: bool,
 }
 
 impl Default for CameraConfig {
@@ -307,6 +311,7 @@ impl Default for CameraConfig {
             jpeg_quality: 85,
             tilt_sigma_deg: host::camera::LevelPrior::DEFAULT_TILT_DEG,
             sideslip_sigma_deg: 0.0,
+            fuse_gps: false,
         }
     }
 }

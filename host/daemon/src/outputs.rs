@@ -181,6 +181,8 @@ fn camera_summary(camera: &CameraPipeline) -> serde_json::Value {
         "map_points": camera.slam().map_points().len(),
         "fixes": fixes.fixes,
         "fixes_paired": fixes.fixes_paired,
+        "fixes_fused": fixes.fixes_fused,
+        "fixes_gated": fixes.fixes_gated,
         "geo_referenced": camera.is_geo_referenced(),
         "scale_from_gps": camera.alignment().map(|a| a.scale),
         "scale_sigma": camera.alignment().map(|a| a.scale_sigma),

@@ -563,6 +563,7 @@ pub(crate) fn camera_pipeline(config: &DaemonConfig) -> Result<CameraPipeline, D
         config.camera.pinhole(),
         CameraPipelineOptions {
             datum_lat_lon_deg: config.georef.datum_lat_lon_deg,
+            fuse_gps: config.camera.fuse_gps,
             slam: host::camera::MonoSlamOptions {
                 level: config.camera.level_prior(),
                 forward_motion: config.camera.forward_motion_prior(),

@@ -27,8 +27,17 @@
 //! its fixes and, while they span less than the alignment span, those of the segments
 //! linked to it, nearest links first (at most [`MAX_SEGMENTS_PER_FIT`]). The fits keep only
 //! their sums (about one origin, so that they add up), so a segment costs a few hundred
-//! bytes and a fix the same at any hour. The fixes are not fused into the filter: the
-//! camera's path within a segment is its own.
+//! bytes and a fix the same at any hour. By default the fixes are not fused into the
+//! filter: the camera's path within a segment is its own.
+//!
+//! With [`CameraPipelineOptions::fuse_gps`], each fix after the map is aligned is also a
+//! measurement for the filter: put into the map's frame by its segment's similarity, it says
+//! where the camera was on the ground at the fix's time
+//! ([`MonoSlam::update_ground_position`]). A fix further from the filter's estimate than the
+//! two covariances allow (beyond [`FUSION_GATE_CHI2`]) is left out; after
+//! [`GATED_IN_A_ROW`] of them in a row the filter, not the fixes, is taken to be wrong, and
+//! its position and velocity covariance is widened until the next fix lies at the gate
+//! ([`MonoSlam::widen_for_ground_position`]).
 
 use std::collections::{HashSet, VecDeque};
 
@@ -47,6 +56,14 @@ use crate::link::SensorEvent;
 /// alignment span, as in a GPS outage, the fit of all fixes serves instead).
 pub const MAX_SEGMENTS_PER_FIT: usize = 64;
 
+/// The χ² (two degrees of freedom) beyond which a fix is not fused: 99.9 % of right fixes
+/// lie within it.
+pub const FUSION_GATE_CHI2: f64 = 13.8;
+
+/// Fixes in a row beyond [`FUSION_GATE_CHI2`] that show the filter, not the fixes, to be
+/// wrong: three right fixes in a row fall beyond a 99.9 % gate once in a billion times.
+pub const GATED_IN_A_ROW: usize = 3;
+
 /// How the camera pipeline runs.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraPipelineOptions {
@@ -62,6 +79,11 @@ pub struct CameraPipelineOptions {
     /// A fix is paired only with a frame at most this far from it in time, s (a fix in a
     /// gap of the camera's frames has no position to pair with).
     pub max_frame_gap_s: f64,
+    /// Fuse the fixes into the camera method's filter: once the map is aligned, each fix,
+    /// put into the map's frame by its segment's similarity, measures where the camera was,
+    /// and corrects its position, velocity and, through them, its map and its scale.
+    /// Otherwise the fixes only place the camera's path.
+    pub fuse_gps: bool,
 }
 
 impl Default for CameraPipelineOptions {
@@ -79,6 +101,7 @@ impl Default for CameraPipelineOptions {
             datum_lat_lon_deg: None,
             alignment_span_m: 20.0,
             max_frame_gap_s: 0.5,
+            fuse_gps: false,
         }
     }
 }
@@ -122,6 +145,14 @@ pub struct CameraPipelineStats {
     pub fixes_refused: usize,
     /// Reports of an epoch already used (another sentence of it).
     pub reports_of_used_epochs: usize,
+    /// Fixes fused into the filter ([`CameraPipelineOptions::fuse_gps`]).
+    pub fixes_fused: usize,
+    /// Fixes not fused because they lay further from the filter's estimate than the two
+    /// covariances allow (χ² beyond [`FUSION_GATE_CHI2`]).
+    pub fixes_gated: usize,
+    /// Times [`GATED_IN_A_ROW`] fixes in a row lay beyond the gate and the filter's camera
+    /// covariance was widened to take the next.
+    pub filter_widened: usize,
 }
 
 /// A stretch of the path that one similarity puts into the `enu` frame.
@@ -159,6 +190,8 @@ pub struct CameraPipeline {
     stats: CameraPipelineStats,
     /// UTC time of the last epoch used.
     last_epoch_s: Option<f64>,
+    /// Fixes in a row that lay beyond the fusion gate.
+    gated_in_a_row: usize,
 }
 
 impl CameraPipeline {
@@ -188,6 +221,7 @@ impl CameraPipeline {
             local_map_segments: Vec::new(),
             stats: CameraPipelineStats::default(),
             last_epoch_s: None,
+            gated_in_a_row: 0,
         })
     }
 
@@ -332,6 +366,9 @@ impl CameraPipeline {
                     span[3].max(n),
                 ];
             }
+            if self.options.fuse_gps {
+                self.fuse(time_s, &measurement, segment);
+            }
             paired = true;
         }
         if paired
@@ -339,6 +376,60 @@ impl CameraPipeline {
             && let Ok(alignment) = self.fit.solve()
         {
             self.alignment = Some(alignment);
+        }
+    }
+
+    /// Fuses the fix `measurement`, taken at `time_s` and paired in `segment`, into the
+    /// filter, where the filter is still in that segment and the map has been aligned.
+    fn fuse(&mut self, time_s: f64, measurement: &GpsMeasurement, segment: usize) {
+        if segment + 1 != self.segments.len() || self.alignment.is_none() {
+            return;
+        }
+        let Some(alignment) = self.segment_alignment(segment) else {
+            return;
+        };
+        if alignment.scale <= 0.0 || !alignment.scale.is_finite() {
+            return;
+        }
+        // enu = s R(θ) map + t, so map = R(−θ) (enu − t) / s.
+        let (sin, cos) = (-alignment.rotation_rad).sin_cos();
+        let to_map = nalgebra::Matrix2::new(cos, -sin, sin, cos) / alignment.scale;
+        let [e, n] = measurement.position_in_enu_m;
+        let [te, tn] = alignment.translation_m;
+        let in_map = to_map * nalgebra::Vector2::new(e - te, n - tn);
+        // The map's (forward, left) is the first camera's (z, −x).
+        let to_world_xz = nalgebra::Matrix2::new(0.0, -1.0, 1.0, 0.0);
+        let point_xz = to_world_xz * in_map;
+        let transform = to_world_xz * to_map;
+        let covariance = transform * measurement.covariance_in_enu_m2 * transform.transpose();
+        let point_xz = [point_xz.x, point_xz.y];
+        if self.gated_in_a_row >= GATED_IN_A_ROW
+            && self
+                .slam
+                .widen_for_ground_position(time_s, point_xz, &covariance, FUSION_GATE_CHI2)
+                .is_some()
+        {
+            self.stats.filter_widened += 1;
+        }
+        // Within the gate after widening, up to rounding.
+        let gate = if self.gated_in_a_row >= GATED_IN_A_ROW {
+            FUSION_GATE_CHI2 * (1.0 + 1e-6)
+        } else {
+            FUSION_GATE_CHI2
+        };
+        match self
+            .slam
+            .update_ground_position(time_s, point_xz, &covariance, gate)
+        {
+            Some(chi2) if chi2 <= gate => {
+                self.stats.fixes_fused += 1;
+                self.gated_in_a_row = 0;
+            }
+            Some(_) => {
+                self.stats.fixes_gated += 1;
+                self.gated_in_a_row += 1;
+            }
+            None => {}
         }
     }
 

@@ -375,6 +375,69 @@ impl MonoSlam {
         )
     }
 
+    /// Updates the filter with where the camera was on the ground at `time_s` (at most a
+    /// second before the last frame): `point_xz` in the world (first camera's) frame, its
+    /// `x` and `z`, with covariance `covariance_xz`; the state is changed only where the
+    /// measurement's χ² is at most `max_chi2`. Returns that χ², or `None` when the
+    /// measurement could not be made: no frame yet, a time out of reach, or a camera not held
+    /// level (its local map's ground is then not the world's).
+    pub fn update_ground_position(
+        &mut self,
+        time_s: f64,
+        point_xz: [f64; 2],
+        covariance_xz: &nalgebra::Matrix2<f64>,
+        max_chi2: f64,
+    ) -> Option<f64> {
+        let (measured, covariance, back_s) =
+            self.ground_position_in_local(time_s, point_xz, covariance_xz)?;
+        self.filter
+            .update_ground_position(measured, &covariance, back_s, max_chi2)
+    }
+
+    /// Widens the camera's covariance so that the ground position
+    /// [`Self::update_ground_position`] would take lies within `chi2`
+    /// ([`MonoEkf::widen_camera_for_ground_position`]). Returns the factor, or `None` where
+    /// the measurement could not be made.
+    pub fn widen_for_ground_position(
+        &mut self,
+        time_s: f64,
+        point_xz: [f64; 2],
+        covariance_xz: &nalgebra::Matrix2<f64>,
+        chi2: f64,
+    ) -> Option<f64> {
+        let (measured, covariance, back_s) =
+            self.ground_position_in_local(time_s, point_xz, covariance_xz)?;
+        self.filter
+            .widen_camera_for_ground_position(measured, &covariance, back_s, chi2)
+    }
+
+    /// A ground position in the world frame as the filter measures it: in the local map's
+    /// frame, with its covariance there, and how long before the last frame it was taken.
+    fn ground_position_in_local(
+        &self,
+        time_s: f64,
+        point_xz: [f64; 2],
+        covariance_xz: &nalgebra::Matrix2<f64>,
+    ) -> Option<([f64; 2], nalgebra::Matrix2<f64>, f64)> {
+        let back_s = self.last_time_s? - time_s;
+        if self.options.level.is_none() || !(0.0..=1.0).contains(&back_s) {
+            return None;
+        }
+        let (origin, rotation) = self.world_from_local;
+        // A level local map is turned from the world only about the vertical (y).
+        let local_from_world = rotation.inverse();
+        let turned = local_from_world.to_rotation_matrix();
+        let m = turned.matrix();
+        let in_local =
+            local_from_world * Vector3::new(point_xz[0] - origin.x, 0.0, point_xz[1] - origin.z);
+        let xz = nalgebra::Matrix2::new(m[(0, 0)], m[(0, 2)], m[(2, 0)], m[(2, 2)]);
+        Some((
+            [in_local.x, in_local.z],
+            xz * covariance_xz * xz.transpose(),
+            back_s,
+        ))
+    }
+
     /// Finishes the current local map and starts a new one at the camera, with the features
     /// in view carried over: their estimates relative to the camera, with their covariance,
     /// so the new map keeps the old one's scale.
@@ -1178,6 +1241,49 @@ fn one_point_ransac(
 mod tests {
     use super::*;
     use crate::camera::known_target::TargetCorner;
+
+    #[test]
+    fn a_ground_position_in_the_world_frame_is_measured_in_the_local_maps() {
+        let camera = PinholeCamera::ideal(500.0, 500.0, 320.0, 240.0, [640, 480]);
+        let options = MonoSlamOptions {
+            level: Some(LevelPrior::default()),
+            ..MonoSlamOptions::default()
+        };
+        let mut slam = MonoSlam::new(camera, options);
+        slam.last_time_s = Some(10.0);
+        // The local map starts 3 m right and 4 m ahead of the first camera, turned 90° about
+        // the vertical (y, down): its z axis is the world's x.
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::FRAC_PI_2);
+        slam.world_from_local = (Vector3::new(3.0, 0.0, 4.0), turn);
+        slam.filter = slam.filter.camera_only(100.0, 0.0, 0.0);
+        // A fix at the last frame's time of the world's (5, 4) is 2 m along the map's z.
+        let exact = nalgebra::Matrix2::identity() * 1e-8;
+        let chi2 = slam.update_ground_position(10.0, [5.0, 4.0], &exact, f64::INFINITY);
+        assert!(chi2.is_some());
+        let position = slam.filter.position_m();
+        assert!(
+            (position.x).abs() < 1e-3 && (position.z - 2.0).abs() < 1e-3,
+            "{position:?}"
+        );
+        let (in_world, _) = slam.pose_in_world();
+        assert!((in_world.x - 5.0).abs() < 1e-3 && (in_world.z - 4.0).abs() < 1e-3);
+        // A fix from before the last second, or from the future, is not measured.
+        assert!(
+            slam.update_ground_position(8.5, [5.0, 4.0], &exact, f64::INFINITY)
+                .is_none()
+        );
+        assert!(
+            slam.update_ground_position(10.5, [5.0, 4.0], &exact, f64::INFINITY)
+                .is_none()
+        );
+        // Nor is one where the camera is not held level.
+        let mut free = MonoSlam::new(camera, MonoSlamOptions::default());
+        free.last_time_s = Some(10.0);
+        assert!(
+            free.update_ground_position(10.0, [5.0, 4.0], &exact, f64::INFINITY)
+                .is_none()
+        );
+    }
 
     #[test]
     fn corners_of_the_empty_cells_are_those_of_the_whole_image_there() {
