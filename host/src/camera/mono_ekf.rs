@@ -18,7 +18,7 @@
 //! Jacobians are taken by central differences of the exact models: the measurement and motion
 //! models are a few lines each, and a difference Jacobian cannot disagree with them.
 
-use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector2, Vector3};
 
 use super::level_prior::level_frame;
 use super::pinhole::PinholeCamera;
@@ -679,10 +679,10 @@ impl MonoEkf {
         h[(1, 2)] = 1.0;
         h[(0, 7)] = -back_s;
         h[(1, 9)] = -back_s;
-        let innovation = DVector::from_vec(vec![
-            measured_xz[0] - (self.x[0] - back_s * self.x[7]),
-            measured_xz[1] - (self.x[2] - back_s * self.x[9]),
-        ]);
+        let innovation = DVector::from_column_slice(
+            self.ground_position_innovation(measured_xz, back_s)
+                .as_slice(),
+        );
         let p_ht = self.p.columns(0, 10) * h.transpose();
         let mut s = &h * p_ht.rows(0, 10);
         for r in 0..2 {
@@ -700,12 +700,22 @@ impl MonoEkf {
         self.apply_update(&p_ht, s, &innovation).then_some(chi2)
     }
 
-    /// Widens the camera's part of the covariance by the least factor `α ≥ 1` that brings a
-    /// ground-position measurement (as [`Self::update_ground_position`] takes it) within
-    /// `chi2`: the camera's rows and columns are scaled by `√α`, so its own block grows by `α`
-    /// and its correlations with the map are kept (a fading memory). For a filter that a run
-    /// of measurements has shown to be surer of itself than it is. Returns `α` (at most 10⁶),
-    /// or `None` when the innovation covariance is not positive definite.
+    /// The measured ground position less the one the state predicts `back_s` seconds before
+    /// its time ([`Self::update_ground_position`]).
+    fn ground_position_innovation(&self, measured_xz: [f64; 2], back_s: f64) -> Vector2<f64> {
+        Vector2::new(
+            measured_xz[0] - (self.x[0] - back_s * self.x[7]),
+            measured_xz[1] - (self.x[2] - back_s * self.x[9]),
+        )
+    }
+
+    /// Widens the camera's position and velocity covariance by the least factor `α ≥ 1`
+    /// that brings a ground-position measurement (as [`Self::update_ground_position`] takes
+    /// it) within `chi2`: their rows and columns are scaled by `√α`, so their own block grows
+    /// by `α` and their correlations with the orientation and the map are kept (a fading
+    /// memory). For a filter that a run of measurements has shown to be surer of where it
+    /// is than it should be; the orientation keeps what the features tell of it. Returns `α`
+    /// (at most 10⁶), or `None` when the innovation covariance is not positive definite.
     pub fn widen_camera_for_ground_position(
         &mut self,
         measured_xz: [f64; 2],
@@ -718,10 +728,7 @@ impl MonoEkf {
         let rows = [0, 2, 7, 9];
         let p = nalgebra::Matrix4::from_fn(|r, c| self.p[(rows[r], rows[c])]);
         let a = h * p * h.transpose();
-        let innovation = nalgebra::Vector2::new(
-            measured_xz[0] - (self.x[0] - back_s * self.x[7]),
-            measured_xz[1] - (self.x[2] - back_s * self.x[9]),
-        );
+        let innovation = self.ground_position_innovation(measured_xz, back_s);
         let chi2_at = |alpha: f64| -> Option<f64> {
             let s = a * alpha + covariance;
             s.cholesky().map(|c| innovation.dot(&c.solve(&innovation)))
