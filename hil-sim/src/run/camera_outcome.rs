@@ -23,9 +23,6 @@ pub struct CameraOutcome {
     /// those left out as further from its estimate than the two covariances allow.
     pub fixes_fused: usize,
     pub fixes_gated: usize,
-    /// Times the filter's camera covariance was widened after fixes in a row lay beyond
-    /// the gate.
-    pub filter_widened: usize,
     /// Whether the fixes put the camera's map into the world (GPS) frame.
     pub geo_referenced: bool,
     /// Metres per unit of the camera's map, from GPS.
@@ -80,7 +77,6 @@ impl CameraOutcome {
             fixes_paired: pipeline.stats().fixes_paired,
             fixes_fused: pipeline.stats().fixes_fused,
             fixes_gated: pipeline.stats().fixes_gated,
-            filter_widened: pipeline.stats().filter_widened,
             geo_referenced: alignment.is_some(),
             scale_from_gps: alignment.map(|a| a.scale),
             scale_sigma_from_gps: alignment.map(|a| a.scale_sigma),
@@ -167,13 +163,16 @@ pub fn write_camera_outputs(
     else {
         return Ok(());
     };
+    // A point of a feature whose depth ran off to infinity has no place on the Earth.
     let path: Vec<[f64; 2]> = in_enu
         .iter()
         .map(|p| [p.position.x, p.position.y])
+        .filter(|p| p.iter().all(|v| v.is_finite()))
         .collect();
     let points: Vec<LandmarkInEnu> = points
         .iter()
         .enumerate()
+        .filter(|(_, p)| p.x.is_finite() && p.y.is_finite())
         .map(|(id, p)| LandmarkInEnu {
             id: Some(id as u64),
             position_in_enu_m: [p.x, p.y],

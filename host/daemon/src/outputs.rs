@@ -91,11 +91,19 @@ pub fn write_outputs(
     let geo = geo_referencing(outcome);
     if let Some((frame, enu_from_map, landmarks_in_map)) = &geo {
         let to_enu = |p: [f64; 2]| enu_from_map.transform_point(p);
+        // A point that is not a number (a camera feature whose depth ran off) has no place
+        // on the Earth: left out rather than failing the export.
+        let finite = |p: &[f64; 2]| p.iter().all(|v| v.is_finite());
         let track: Vec<[f64; 2]> = trajectory
             .iter()
             .map(|r| to_enu([r.1.x_m, r.1.y_m]))
+            .filter(finite)
             .collect();
-        let landmarks_in_enu: Vec<[f64; 2]> = landmarks_in_map.iter().map(|&p| to_enu(p)).collect();
+        let landmarks_in_enu: Vec<[f64; 2]> = landmarks_in_map
+            .iter()
+            .map(|&p| to_enu(p))
+            .filter(finite)
+            .collect();
         let landmarks: Vec<LandmarkInEnu> = landmarks_in_enu
             .iter()
             .enumerate()

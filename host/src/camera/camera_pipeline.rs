@@ -34,10 +34,7 @@
 //! measurement for the filter: put into the map's frame by its segment's similarity, it says
 //! where the camera was on the ground at the fix's time
 //! ([`MonoSlam::update_ground_position`]). A fix further from the filter's estimate than the
-//! two covariances allow (beyond [`FUSION_GATE_CHI2`]) is left out; after
-//! [`GATED_IN_A_ROW`] of them in a row the filter, not the fixes, is taken to be wrong, and
-//! its position and velocity covariance is widened until the next fix lies at the gate
-//! ([`MonoSlam::widen_for_ground_position`]).
+//! two covariances allow (beyond [`FUSION_GATE_CHI2`]) is left out.
 
 use std::collections::{HashSet, VecDeque};
 
@@ -59,10 +56,6 @@ pub const MAX_SEGMENTS_PER_FIT: usize = 64;
 /// The χ² (two degrees of freedom) beyond which a fix is not fused: 99.9 % of right fixes
 /// lie within it.
 pub const FUSION_GATE_CHI2: f64 = 13.8;
-
-/// Fixes in a row beyond [`FUSION_GATE_CHI2`] that show the filter, not the fixes, to be
-/// wrong: three right fixes in a row fall beyond a 99.9 % gate once in a billion times.
-pub const GATED_IN_A_ROW: usize = 3;
 
 /// How the camera pipeline runs.
 #[derive(Clone, Copy, Debug)]
@@ -150,9 +143,6 @@ pub struct CameraPipelineStats {
     /// Fixes not fused because they lay further from the filter's estimate than the two
     /// covariances allow (χ² beyond [`FUSION_GATE_CHI2`]).
     pub fixes_gated: usize,
-    /// Times [`GATED_IN_A_ROW`] fixes in a row lay beyond the gate and the filter's camera
-    /// covariance was widened to take the next.
-    pub filter_widened: usize,
 }
 
 /// A stretch of the path that one similarity puts into the `enu` frame.
@@ -190,8 +180,6 @@ pub struct CameraPipeline {
     stats: CameraPipelineStats,
     /// UTC time of the last epoch used.
     last_epoch_s: Option<f64>,
-    /// Fixes in a row that lay beyond the fusion gate.
-    gated_in_a_row: usize,
 }
 
 impl CameraPipeline {
@@ -221,7 +209,6 @@ impl CameraPipeline {
             local_map_segments: Vec::new(),
             stats: CameraPipelineStats::default(),
             last_epoch_s: None,
-            gated_in_a_row: 0,
         })
     }
 
@@ -403,32 +390,16 @@ impl CameraPipeline {
         let transform = to_world_xz * to_map;
         let covariance = transform * measurement.covariance_in_enu_m2 * transform.transpose();
         let point_xz = [point_xz.x, point_xz.y];
-        if self.gated_in_a_row >= GATED_IN_A_ROW
-            && self
-                .slam
-                .widen_for_ground_position(time_s, point_xz, &covariance, FUSION_GATE_CHI2)
-                .is_some()
-        {
-            self.stats.filter_widened += 1;
+        // A degenerate segment fit gives no point to measure.
+        if !(point_xz.iter().all(|v| v.is_finite()) && covariance.iter().all(|v| v.is_finite())) {
+            return;
         }
-        // Within the gate after widening, up to rounding.
-        let gate = if self.gated_in_a_row >= GATED_IN_A_ROW {
-            FUSION_GATE_CHI2 * (1.0 + 1e-6)
-        } else {
-            FUSION_GATE_CHI2
-        };
         match self
             .slam
-            .update_ground_position(time_s, point_xz, &covariance, gate)
+            .update_ground_position(time_s, point_xz, &covariance, FUSION_GATE_CHI2)
         {
-            Some(chi2) if chi2 <= gate => {
-                self.stats.fixes_fused += 1;
-                self.gated_in_a_row = 0;
-            }
-            Some(_) => {
-                self.stats.fixes_gated += 1;
-                self.gated_in_a_row += 1;
-            }
+            Some(chi2) if chi2 <= FUSION_GATE_CHI2 => self.stats.fixes_fused += 1,
+            Some(_) => self.stats.fixes_gated += 1,
             None => {}
         }
     }

@@ -18,7 +18,7 @@
 //! Jacobians are taken by central differences of the exact models: the measurement and motion
 //! models are a few lines each, and a difference Jacobian cannot disagree with them.
 
-use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix2, UnitQuaternion, Vector3};
 
 use super::level_prior::level_frame;
 use super::pinhole::PinholeCamera;
@@ -664,8 +664,8 @@ impl MonoEkf {
     /// its velocity, as the constant-velocity model has it. Returns the measurement's χ²
     /// against its innovation covariance; the state is updated only where that is at most
     /// `max_chi2` (a gate: a measurement further off than the filter and the measurement
-    /// together allow is left out). `None` (and the state left) when the innovation
-    /// covariance is not positive definite.
+    /// together allow is left out). `None` (and the state left) when the measurement or its
+    /// covariance is not finite, or the innovation covariance is not positive definite.
     pub fn update_ground_position(
         &mut self,
         measured_xz: [f64; 2],
@@ -673,16 +673,22 @@ impl MonoEkf {
         back_s: f64,
         max_chi2: f64,
     ) -> Option<f64> {
+        if !(measured_xz.iter().all(|v| v.is_finite())
+            && covariance.iter().all(|v| v.is_finite())
+            && back_s.is_finite())
+        {
+            return None;
+        }
         // Only the position (0..3) and the velocity (7..10) columns of H are not zero.
         let mut h = DMatrix::zeros(2, 10);
         h[(0, 0)] = 1.0;
         h[(1, 2)] = 1.0;
         h[(0, 7)] = -back_s;
         h[(1, 9)] = -back_s;
-        let innovation = DVector::from_column_slice(
-            self.ground_position_innovation(measured_xz, back_s)
-                .as_slice(),
-        );
+        let innovation = DVector::from_vec(vec![
+            measured_xz[0] - (self.x[0] - back_s * self.x[7]),
+            measured_xz[1] - (self.x[2] - back_s * self.x[9]),
+        ]);
         let p_ht = self.p.columns(0, 10) * h.transpose();
         let mut s = &h * p_ht.rows(0, 10);
         for r in 0..2 {
@@ -694,77 +700,13 @@ impl MonoEkf {
             .clone()
             .cholesky()
             .map(|c| innovation.dot(&c.solve(&innovation)))?;
+        if !chi2.is_finite() {
+            return None;
+        }
         if chi2 > max_chi2 {
             return Some(chi2);
         }
         self.apply_update(&p_ht, s, &innovation).then_some(chi2)
-    }
-
-    /// The measured ground position less the one the state predicts `back_s` seconds before
-    /// its time ([`Self::update_ground_position`]).
-    fn ground_position_innovation(&self, measured_xz: [f64; 2], back_s: f64) -> Vector2<f64> {
-        Vector2::new(
-            measured_xz[0] - (self.x[0] - back_s * self.x[7]),
-            measured_xz[1] - (self.x[2] - back_s * self.x[9]),
-        )
-    }
-
-    /// Widens the camera's position and velocity covariance by the least factor `α ≥ 1`
-    /// that brings a ground-position measurement (as [`Self::update_ground_position`] takes
-    /// it) within `chi2`: their rows and columns are scaled by `√α`, so their own block grows
-    /// by `α` and their correlations with the orientation and the map are kept (a fading
-    /// memory). For a filter that a run of measurements has shown to be surer of where it
-    /// is than it should be; the orientation keeps what the features tell of it. Returns `α`
-    /// (at most 10⁶), or `None` when the innovation covariance is not positive definite.
-    pub fn widen_camera_for_ground_position(
-        &mut self,
-        measured_xz: [f64; 2],
-        covariance: &Matrix2<f64>,
-        back_s: f64,
-        chi2: f64,
-    ) -> Option<f64> {
-        let h = nalgebra::Matrix2x4::new(1.0, 0.0, -back_s, 0.0, 0.0, 1.0, 0.0, -back_s);
-        // Position x, z and velocity x, z: the rows and columns H reads.
-        let rows = [0, 2, 7, 9];
-        let p = nalgebra::Matrix4::from_fn(|r, c| self.p[(rows[r], rows[c])]);
-        let a = h * p * h.transpose();
-        let innovation = self.ground_position_innovation(measured_xz, back_s);
-        let chi2_at = |alpha: f64| -> Option<f64> {
-            let s = a * alpha + covariance;
-            s.cholesky().map(|c| innovation.dot(&c.solve(&innovation)))
-        };
-        if chi2_at(1.0)? <= chi2 {
-            return Some(1.0);
-        }
-        // χ² falls as α grows: bisect on ln α.
-        let (mut low, mut high) = (0.0f64, 6.0 * std::f64::consts::LN_10);
-        if chi2_at(high.exp())? > chi2 {
-            low = high;
-        }
-        for _ in 0..40 {
-            if high - low < 1e-6 {
-                break;
-            }
-            let mid = 0.5 * (low + high);
-            if chi2_at(mid.exp())? > chi2 {
-                low = mid;
-            } else {
-                high = mid;
-            }
-        }
-        let alpha = high.exp();
-        let root = alpha.sqrt();
-        let n = self.x.len();
-        // The position's and the velocity's rows and columns: the orientation keeps what the
-        // features tell of it.
-        for r in (0..3).chain(7..10) {
-            for c in 0..n {
-                self.p[(r, c)] *= root;
-                self.p[(c, r)] *= root;
-            }
-        }
-        // Their own block was scaled twice by √α, as it should; the rest of their rows once.
-        Some(alpha)
     }
 
     /// Adds a point of known position (world frame, m), uncorrelated with the rest, each
@@ -1035,42 +977,11 @@ mod tests {
             .expect("a positive innovation covariance");
         assert!(chi2 > 13.8, "{chi2}");
         assert_eq!(filter.x, before);
-    }
-
-    #[test]
-    fn widening_brings_a_far_ground_position_to_the_gate_and_keeps_the_correlations() {
-        // Sure of its position to a centimetre, with a feature anchored there; a fix 10 m
-        // off.
-        let sure = || {
-            let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
-            for i in 0..3 {
-                filter.p[(i, i)] = 1e-4;
-            }
-            filter.add_feature([400.0, 200.0]).expect("a ray");
-            filter
-        };
-        let correlation =
-            |f: &MonoEkf, a: usize, b: usize| f.p[(a, b)] / (f.p[(a, a)] * f.p[(b, b)]).sqrt();
-        let mut filter = sure();
-        let before = correlation(&filter, 0, CAMERA_STATE);
-        let fix = Matrix2::identity() * 0.25;
-        let alpha = filter
-            .widen_camera_for_ground_position([10.0, 0.0], &fix, 0.0, 13.8)
-            .expect("a positive innovation covariance");
-        assert!(alpha > 1.0);
-        assert!((correlation(&filter, 0, CAMERA_STATE) - before).abs() < 1e-9);
-        let chi2 = filter
-            .update_ground_position([10.0, 0.0], &fix, 0.0, 13.8 * (1.0 + 1e-6))
-            .expect("a positive innovation covariance");
-        assert!((chi2 - 13.8).abs() < 1e-3, "{chi2}");
-        // Within the gate already: nothing to widen.
-        let mut near = sure();
-        let p = near.p.clone();
-        assert_eq!(
-            near.widen_camera_for_ground_position([0.1, 0.0], &fix, 0.0, 13.8),
-            Some(1.0)
-        );
-        assert_eq!(near.p, p);
+        // Nor does a measurement that is not a number.
+        let p = filter.p.clone();
+        let none = filter.update_ground_position([f64::NAN, 0.0], &exact, 0.0, 13.8);
+        assert!(none.is_none());
+        assert_eq!((&filter.x, &filter.p), (&before, &p));
     }
 
     #[test]

@@ -394,23 +394,6 @@ impl MonoSlam {
             .update_ground_position(measured, &covariance, back_s, max_chi2)
     }
 
-    /// Widens the camera's covariance so that the ground position
-    /// [`Self::update_ground_position`] would take lies within `chi2`
-    /// ([`MonoEkf::widen_camera_for_ground_position`]). Returns the factor, or `None` where
-    /// the measurement could not be made.
-    pub fn widen_for_ground_position(
-        &mut self,
-        time_s: f64,
-        point_xz: [f64; 2],
-        covariance_xz: &nalgebra::Matrix2<f64>,
-        chi2: f64,
-    ) -> Option<f64> {
-        let (measured, covariance, back_s) =
-            self.ground_position_in_local(time_s, point_xz, covariance_xz)?;
-        self.filter
-            .widen_camera_for_ground_position(measured, &covariance, back_s, chi2)
-    }
-
     /// A ground position in the world frame as the filter measures it: in the local map's
     /// frame, with its covariance there, and how long before the last frame it was taken.
     fn ground_position_in_local(
