@@ -388,20 +388,6 @@ impl MonoSlam {
         covariance_xz: &nalgebra::Matrix2<f64>,
         max_chi2: f64,
     ) -> Option<f64> {
-        let (measured, covariance, back_s) =
-            self.ground_position_in_local(time_s, point_xz, covariance_xz)?;
-        self.filter
-            .update_ground_position(measured, &covariance, back_s, max_chi2)
-    }
-
-    /// A ground position in the world frame as the filter measures it: in the local map's
-    /// frame, with its covariance there, and how long before the last frame it was taken.
-    fn ground_position_in_local(
-        &self,
-        time_s: f64,
-        point_xz: [f64; 2],
-        covariance_xz: &nalgebra::Matrix2<f64>,
-    ) -> Option<([f64; 2], nalgebra::Matrix2<f64>, f64)> {
         let back_s = self.last_time_s? - time_s;
         if self.options.level.is_none() || !(0.0..=1.0).contains(&back_s) {
             return None;
@@ -414,11 +400,12 @@ impl MonoSlam {
         let in_local =
             local_from_world * Vector3::new(point_xz[0] - origin.x, 0.0, point_xz[1] - origin.z);
         let xz = nalgebra::Matrix2::new(m[(0, 0)], m[(0, 2)], m[(2, 0)], m[(2, 2)]);
-        Some((
+        self.filter.update_ground_position(
             [in_local.x, in_local.z],
-            xz * covariance_xz * xz.transpose(),
+            &(xz * covariance_xz * xz.transpose()),
             back_s,
-        ))
+            max_chi2,
+        )
     }
 
     /// Finishes the current local map and starts a new one at the camera, with the features
