@@ -23,6 +23,13 @@ fn tum_rpy_rotation_is_tracked_against_motion_capture() {
     let Some(sequence) = datasets::require("camera/tum-fr1-rpy-0000-0199", test) else {
         return;
     };
+    let layout = host::camera::CameraSequence::open(&sequence)
+        .expect("TUM layout")
+        .layout;
+    assert!(
+        !layout.is_forward_looking_vehicle(),
+        "a hand-held camera moves any way"
+    );
     let options = options(sequence, "tum", 100);
     let summary = replay_camera(&options).expect("replay");
     assert_eq!(summary.frames, 100);
@@ -80,6 +87,8 @@ fn kitti_frames_calibration_and_truth_are_read() {
     assert_eq!(read.truth.len(), 160);
     assert_eq!((read.camera.width_px, read.camera.height_px), (1226, 370));
     assert!((read.camera.fx_px - 707.0912).abs() < 1e-9);
+    // `replay-camera` holds a KITTI car's camera to move forward unless told otherwise.
+    assert!(read.layout.is_forward_looking_vehicle());
     let options = options(sequence, "kitti", 20);
     let summary = replay_camera(&options).expect("replay");
     assert_eq!(summary.frames, 20);

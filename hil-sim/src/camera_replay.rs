@@ -70,6 +70,9 @@ pub struct CameraReplaySummary {
     pub features_started_on_movers: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub map_points_on_movers: Option<usize>,
+    /// The forward-motion prior's sideslip, degrees (standard deviation), when the camera
+    /// was taken to look forward from a vehicle.
+    pub sideslip_sigma_deg: Option<f64>,
     /// Against the folder's ground truth, after the best similarity transform.
     pub error: Option<ErrorSummary>,
 }
@@ -264,6 +267,10 @@ pub fn replay_camera(
         map_points: map_points.len(),
         features_started_on_movers: masks.as_ref().map(|_| started_on_movers.len()),
         map_points_on_movers,
+        sideslip_sigma_deg: options
+            .slam
+            .forward_motion
+            .map(|prior| (prior.sideslip_sigma_rad.to_degrees() * 1e9).round() / 1e9),
         error,
     };
     let summary_path = options.out.join("summary.json");

@@ -39,14 +39,22 @@ pub struct ReplayCameraArgs {
     camera_tilt_deg: Option<f64>,
     /// The camera looks forward from a ground vehicle, and its motion leaves its optical axis
     /// by about this much as the vehicle turns and pitches (standard deviation, degrees): the
-    /// method holds the camera's velocity to it. Without it the camera may move in any
-    /// direction (hand-held).
+    /// method holds the camera's velocity to it; 0: the camera may move in any direction
+    /// (hand-held). Default: 3 for a KITTI folder (the KITTI car's camera), 0 for a TUM
+    /// folder (a camera that may be hand-held).
     #[arg(long, value_name = "DEG")]
     camera_sideslip_deg: Option<f64>,
 }
 
 /// Runs the camera method; prints the summary on stdout.
 pub fn run(args: ReplayCameraArgs) -> CliResult {
+    let sideslip_deg = match args.camera_sideslip_deg {
+        Some(deg) => Some(deg),
+        None => host::camera::CameraSequence::open(&args.sequence)?
+            .layout
+            .is_forward_looking_vehicle()
+            .then_some(host::camera::ForwardMotionPrior::DEFAULT_SIDESLIP_DEG),
+    };
     let options = hil_sim::camera_replay::CameraReplayOptions {
         sequence: args.sequence,
         out: args.out,
@@ -57,7 +65,7 @@ pub fn run(args: ReplayCameraArgs) -> CliResult {
             level: args
                 .camera_tilt_deg
                 .map_or(Ok(None), super::camera_args::level_prior_of)?,
-            forward_motion: super::camera_args::forward_motion_prior(args.camera_sideslip_deg)?,
+            forward_motion: super::camera_args::forward_motion_prior(sideslip_deg)?,
             ..host::camera::MonoSlamOptions::default()
         },
         progress: true,

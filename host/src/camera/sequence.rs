@@ -50,6 +50,16 @@ pub enum SequenceLayout {
     Tum,
 }
 
+impl SequenceLayout {
+    /// Whether the layout's sequences come from a camera looking forward from a road
+    /// vehicle, which moves along its optical axis ([`super::ForwardMotionPrior`]): the KITTI
+    /// odometry layout is that of the KITTI car's cameras; a TUM RGB-D sequence's camera may
+    /// be hand-held and move in any direction.
+    pub fn is_forward_looking_vehicle(self) -> bool {
+        matches!(self, SequenceLayout::Kitti)
+    }
+}
+
 /// One frame of a sequence: when, and where its image is.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameFile {
