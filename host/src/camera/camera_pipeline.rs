@@ -25,7 +25,10 @@
 //! map's segment (the history memory moved the camera into that map's frame, so the path
 //! jumps there, and from there on agrees with the earlier map). A segment's fit is that of
 //! its fixes and, while they span less than the alignment span, those of the segments
-//! linked to it, nearest links first (at most [`MAX_SEGMENTS_PER_FIT`]). The fits keep only
+//! linked to it, nearest links first (at most [`MAX_SEGMENTS_PER_FIT`]), each taken in only
+//! where its fixes agree with the fit so far ([`SimilarityFit2d::agrees_with`], within
+//! [`LINK_AGREEMENT_CHI2`]): a place recognised in the wrong spot, or a map whose frame
+//! drifted since, puts the camera where the fixes say it was not. The fits keep only
 //! their sums (about one origin, so that they add up), so a segment costs a few hundred
 //! bytes and a fix the same at any hour. By default the fixes are not fused into the
 //! filter: the camera's path within a segment is its own.
@@ -41,17 +44,23 @@ use std::collections::{HashSet, VecDeque};
 use image::GrayImage;
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::mono_slam::WorldJump;
 use super::{FrameReport, LevelPrior, MonoSlam, MonoSlamOptions, MonoSlamStats, PinholeCamera};
 use crate::geometry::Pose2;
 use crate::georef::{
-    AlignmentPair, GpsMeasurement, GpsMeasurementOptions, LocalFrame, SimilarityAlignment2d,
-    SimilarityFit2d,
+    AlignmentPair, GpsMeasurement, GpsMeasurementOptions, LocalFrame, MapFrameChange,
+    SimilarityAlignment2d, SimilarityFit2d,
 };
 use crate::link::SensorEvent;
 
 /// The most segments one segment's fit takes in (when the fixes are too few to span the
 /// alignment span, as in a GPS outage, the fit of all fixes serves instead).
 pub const MAX_SEGMENTS_PER_FIT: usize = 64;
+
+/// The χ² (four degrees of freedom: the similarity) beyond which a linked segment's fixes
+/// are taken to contradict a segment's fit, and are not taken into it: 99.9 % of segments
+/// that do share one similarity with it lie within it.
+pub const LINK_AGREEMENT_CHI2: f64 = 18.47;
 
 /// The χ² (two degrees of freedom) beyond which a fix is not fused: 99.9 % of right fixes
 /// lie within it.
@@ -154,7 +163,42 @@ struct Segment {
     span: Option<[f64; 4]>,
     /// The segments in the same frame about it: the one before it along the path, or the
     /// recognised map's segment it jumped into, and those linked to it in turn.
-    links: Vec<usize>,
+    links: Vec<Link>,
+}
+
+/// A segment linked to another, and how its `map` coordinates go into the other's.
+#[derive(Clone, Copy, Debug)]
+struct Link {
+    segment: usize,
+    /// The linked segment's `map` coordinates into those of the segment holding the link:
+    /// no change for segments in one frame, the jump for the segment before a recognised
+    /// place (the path itself runs on there, in the frame it had).
+    change: MapFrameChange,
+}
+
+impl Link {
+    fn same_frame(segment: usize) -> Link {
+        Link {
+            segment,
+            change: MapFrameChange::IDENTITY,
+        }
+    }
+}
+
+/// The world jump of a recognised place (`after = rotation * before + translation`) as a
+/// change of the `map` frame (forward and left of the first camera).
+fn map_frame_change(jump: &WorldJump) -> MapFrameChange {
+    let (translation, rotation) = jump;
+    let moved = |[forward, left]: [f64; 2]| {
+        let p = rotation * Vector3::new(-left, 0.0, forward) + translation;
+        [p.z, -p.x]
+    };
+    let shift = moved([0.0, 0.0]);
+    let unit = moved([1.0, 0.0]);
+    MapFrameChange {
+        turn_scale: [unit[0] - shift[0], unit[1] - shift[1]],
+        shift,
+    }
 }
 
 /// The camera method with GPS. See the [module documentation](self).
@@ -268,14 +312,32 @@ impl CameraPipeline {
                 None => self.segments.len().checked_sub(1),
             };
             let new = self.segments.len();
+            let mut links: Vec<Link> = linked.into_iter().map(Link::same_frame).collect();
+            if let Some(linked) = linked {
+                self.segments[linked].links.push(Link::same_frame(new));
+            }
+            // Across a recognised place the path runs on: the segment before, in the frame
+            // it had, is linked through the jump (after the recognised map's segment, so that
+            // it serves where that one contradicts the fixes).
+            let jump = report.world_jump.as_ref().map(map_frame_change);
+            if let (Some(jump), Some(before)) = (jump, new.checked_sub(1))
+                && let Some(back) = jump.inverse()
+                && report.place_recognised.is_some()
+            {
+                links.push(Link {
+                    segment: before,
+                    change: jump,
+                });
+                self.segments[before].links.push(Link {
+                    segment: new,
+                    change: back,
+                });
+            }
             self.segments.push(Segment {
                 fit: None,
                 span: None,
-                links: linked.into_iter().collect(),
+                links,
             });
-            if let Some(linked) = linked {
-                self.segments[linked].links.push(new);
-            }
             let local_map = after.local_maps.saturating_sub(1);
             if local_map >= self.local_map_segments.len() {
                 self.local_map_segments.resize(local_map + 1, 0);
@@ -410,8 +472,9 @@ impl CameraPipeline {
     }
 
     /// `enu_from_map` for segment `segment`: the fit of its fixes and those of the segments
-    /// linked to it, nearest links first, taken in until they span far enough; the fit of
-    /// all fixes where even those do not.
+    /// linked to it that agree with them, nearest links first, taken in until they span far
+    /// enough; the fit of those taken where even all of them do not, and the fit of all
+    /// fixes where those fix no similarity.
     pub fn segment_alignment(&self, segment: usize) -> Option<SimilarityAlignment2d> {
         let global = self.alignment?;
         if segment >= self.segments.len() {
@@ -419,30 +482,41 @@ impl CameraPipeline {
         }
         let mut fit = SimilarityFit2d::default();
         let mut span: Option<[f64; 4]> = None;
-        let mut queue = VecDeque::from([segment]);
+        // Each segment with the change of its `map` coordinates into `segment`'s.
+        let mut queue = VecDeque::from([(segment, MapFrameChange::IDENTITY)]);
         let mut seen = HashSet::from([segment]);
         let mut taken = 0;
         while !self.spans_enough(span) {
-            let Some(next) = queue.pop_front() else {
-                return Some(global);
-            };
             taken += 1;
-            if taken > MAX_SEGMENTS_PER_FIT {
-                return Some(global);
-            }
+            let Some((next, change)) = queue.pop_front().filter(|_| taken <= MAX_SEGMENTS_PER_FIT)
+            else {
+                // Every segment in its frame taken or contradicting it, or as many as one fit
+                // takes: the fit of those taken, where it fixes a similarity.
+                return Some(fit.solve().unwrap_or(global));
+            };
             let other = &self.segments[next];
-            if let Some(other_fit) = &other.fit
-                && fit.add_fit(other_fit).is_err()
-            {
-                return Some(global);
+            if let Some(other_fit) = &other.fit {
+                let other_fit = if change == MapFrameChange::IDENTITY {
+                    *other_fit
+                } else {
+                    other_fit.moved(&change)
+                };
+                // A segment joined through a recognised place whose frame its fixes
+                // contradict: the recognition put the camera where GPS says it was not.
+                if next != segment && !fit.agrees_with(&other_fit, LINK_AGREEMENT_CHI2) {
+                    continue;
+                }
+                if fit.add_fit(&other_fit).is_err() {
+                    return Some(global);
+                }
             }
             if let Some([e0, n0, e1, n1]) = other.span {
                 let s = span.get_or_insert([e0, n0, e1, n1]);
                 *s = [s[0].min(e0), s[1].min(n0), s[2].max(e1), s[3].max(n1)];
             }
-            for &link in &other.links {
-                if seen.insert(link) {
-                    queue.push_back(link);
+            for link in &other.links {
+                if seen.insert(link.segment) {
+                    queue.push_back((link.segment, change.after(&link.change)));
                 }
             }
         }
@@ -607,5 +681,34 @@ mod tests {
         };
         assert_eq!(pose.in_map(), [2.0, -1.0]);
         assert!((pose.heading_in_map_rad() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_recognised_place_s_jump_moves_the_map_frame_as_it_moves_the_camera() {
+        // The map frame turned 30° to the left about the vertical and shifted: the camera's
+        // pose before the jump, taken through it, is its pose after, in the map frame too.
+        let rotation = UnitQuaternion::from_axis_angle(&-Vector3::y_axis(), 30f64.to_radians());
+        let jump = (Vector3::new(0.5, 0.0, -2.0), rotation);
+        let before = CameraPose {
+            time_s: 0.0,
+            position: Vector3::new(-3.0, 0.0, 7.0),
+            orientation: UnitQuaternion::from_axis_angle(&-Vector3::y_axis(), 0.2),
+        };
+        let after = CameraPose {
+            time_s: 0.0,
+            position: jump.1 * before.position + jump.0,
+            orientation: jump.1 * before.orientation,
+        };
+        let change = map_frame_change(&jump);
+        let moved = change.apply(before.in_map());
+        let expected = after.in_map();
+        assert!((moved[0] - expected[0]).abs() < 1e-12 && (moved[1] - expected[1]).abs() < 1e-12);
+        let turn = change.turn_scale[1].atan2(change.turn_scale[0]);
+        let heading_change = after.heading_in_map_rad() - before.heading_in_map_rad();
+        assert!(
+            (turn - heading_change).abs() < 1e-12,
+            "{turn} {heading_change}"
+        );
+        assert!((change.turn_scale[0].hypot(change.turn_scale[1]) - 1.0).abs() < 1e-12);
     }
 }

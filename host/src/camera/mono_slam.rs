@@ -200,7 +200,15 @@ pub struct FrameReport {
     /// index, the first map 0): the camera moved into that map's frame, so its position in
     /// the world jumps here.
     pub place_recognised: Option<usize>,
+    /// With [`Self::place_recognised`], the jump: the camera's world pose after it is
+    /// `rotation * before + translation` (the same for every point of the current local
+    /// map), as `(translation, rotation)`.
+    pub world_jump: Option<WorldJump>,
 }
+
+/// A change of the world frame's coordinates: `after = rotation * before + translation`, as
+/// `(translation, rotation)`.
+pub type WorldJump = (Vector3<f64>, UnitQuaternion<f64>);
 
 /// Whole-run counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -249,8 +257,9 @@ pub struct MonoSlam {
     world_from_local: (Vector3<f64>, UnitQuaternion<f64>),
     /// The finished local maps' features.
     history: CameraHistory,
-    /// The local map whose place was recognised in the frame under way.
-    place_recognised: Option<usize>,
+    /// The local map whose place was recognised in the frame under way, and the jump of the
+    /// current map's frame in the world ([`FrameReport::world_jump`]).
+    place_recognised: Option<(usize, WorldJump)>,
 }
 
 impl MonoSlam {
@@ -559,7 +568,8 @@ impl MonoSlam {
             deleted,
             deleted_as_moving,
             corners_moving,
-            place_recognised: self.place_recognised,
+            place_recognised: self.place_recognised.map(|(map, _)| map),
+            world_jump: self.place_recognised.map(|(_, jump)| jump),
         }
     }
 
@@ -795,9 +805,16 @@ impl MonoSlam {
         let (position_seen, orientation_seen) = place.pose();
         let old_from_new_rotation = orientation_seen * orientation_now.inverse();
         let old_from_new_origin = position_seen - old_from_new_rotation * position_now;
+        let before = self.world_from_local;
         self.world_from_local = (
             rotation * old_from_new_origin + origin,
             rotation * old_from_new_rotation,
+        );
+        // after = R' R⁻¹ (before − o) + o' for every point of the current map.
+        let jump_rotation = self.world_from_local.1 * before.1.inverse();
+        let jump = (
+            self.world_from_local.0 - jump_rotation * before.0,
+            jump_rotation,
         );
         let new_from_old = old_from_new_rotation.inverse();
         let new_from_old_origin = -(new_from_old * old_from_new_origin);
@@ -821,7 +838,7 @@ impl MonoSlam {
         }
         self.stats.places_recognised += 1;
         self.stats.features_recalled += recalled;
-        self.place_recognised = Some(map);
+        self.place_recognised = Some((map, jump));
         recalled
     }
 

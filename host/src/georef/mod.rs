@@ -36,4 +36,4 @@ pub use kml_export::{kml_document, write_kml};
 pub use landmark_in_enu::LandmarkInEnu;
 pub use local_frame::LocalFrame;
 pub use rigid_alignment::{AlignmentPair, RigidAlignment2d, RigidAlignmentOptions};
-pub use similarity_alignment::{SimilarityAlignment2d, SimilarityFit2d};
+pub use similarity_alignment::{MapFrameChange, SimilarityAlignment2d, SimilarityFit2d};

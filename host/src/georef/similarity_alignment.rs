@@ -38,6 +38,8 @@ pub struct SimilarityFit2d {
     normal_unweighted: Matrix4<f64>,
     rhs_unweighted: Vector4<f64>,
     q2_unweighted: f64,
+    /// `Σ q_iᵀ W_i q_i`: the weighted residual.
+    q2_weighted: f64,
     pairs: usize,
     /// The map point and GPS position the sums are taken about; `None` until the first pair
     /// sets it.
@@ -52,6 +54,7 @@ impl Default for SimilarityFit2d {
             normal_unweighted: Matrix4::zeros(),
             rhs_unweighted: Vector4::zeros(),
             q2_unweighted: 0.0,
+            q2_weighted: 0.0,
             pairs: 0,
             origin: None,
         }
@@ -88,6 +91,63 @@ impl SimilarityAlignment2d {
             self.scale * (cos * x - sin * y) + self.translation_m[0],
             self.scale * (sin * x + cos * y) + self.translation_m[1],
         ]
+    }
+}
+
+/// A change of a map's frame by a similarity, `p' = c p + d` with the points as complex
+/// numbers (`c` turns and scales, `d` moves): where a camera map's frame jumped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapFrameChange {
+    /// `c`: `(s cos θ, s sin θ)`.
+    pub turn_scale: [f64; 2],
+    /// `d`, in the new frame's units.
+    pub shift: [f64; 2],
+}
+
+/// The product of two complex numbers.
+fn complex_product(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]]
+}
+
+/// The 2 × 2 matrix that multiplies a vector, as a complex number, by `z`.
+fn complex_matrix(z: [f64; 2]) -> nalgebra::Matrix2<f64> {
+    nalgebra::Matrix2::new(z[0], -z[1], z[1], z[0])
+}
+
+impl MapFrameChange {
+    /// No change.
+    pub const IDENTITY: MapFrameChange = MapFrameChange {
+        turn_scale: [1.0, 0.0],
+        shift: [0.0, 0.0],
+    };
+
+    /// Where `point` of the old frame lies in the new one.
+    pub fn apply(&self, point: [f64; 2]) -> [f64; 2] {
+        let [x, y] = complex_product(self.turn_scale, point);
+        [x + self.shift[0], y + self.shift[1]]
+    }
+
+    /// `self` after `first`: a point of `first`'s old frame taken through both.
+    pub fn after(&self, first: &MapFrameChange) -> MapFrameChange {
+        MapFrameChange {
+            turn_scale: complex_product(self.turn_scale, first.turn_scale),
+            shift: self.apply(first.shift),
+        }
+    }
+
+    /// The change back, `None` for a degenerate one (`c = 0`).
+    pub fn inverse(&self) -> Option<MapFrameChange> {
+        let [a, b] = self.turn_scale;
+        let norm = a * a + b * b;
+        if !(norm.is_finite() && norm > 0.0) {
+            return None;
+        }
+        let inverse_c = [a / norm, -b / norm];
+        let [x, y] = complex_product(inverse_c, self.shift);
+        Some(MapFrameChange {
+            turn_scale: inverse_c,
+            shift: [-x, -y],
+        })
     }
 }
 
@@ -136,6 +196,7 @@ impl SimilarityFit2d {
         self.normal_unweighted += other.normal_unweighted;
         self.rhs_unweighted += other.rhs_unweighted;
         self.q2_unweighted += other.q2_unweighted;
+        self.q2_weighted += other.q2_weighted;
         self.pairs += other.pairs;
         Ok(())
     }
@@ -164,8 +225,77 @@ impl SimilarityFit2d {
         self.normal_unweighted += j.transpose() * j;
         self.rhs_unweighted += j.transpose() * q;
         self.q2_unweighted += q.norm_squared();
+        self.q2_weighted += (q.transpose() * information * q)[(0, 0)];
         self.pairs += 1;
         Ok(())
+    }
+
+    /// The same pairs with their map points in the frame `change` takes them to (about the
+    /// same origin): the fit's similarity composed with the change's inverse, and the same
+    /// residuals. Exact, as the model is linear in its four numbers: with `p = (p' − d) / c`
+    /// the numbers of the two fits are related by one 4 × 4 matrix `L`, and the sums by
+    /// `N' = Lᵀ N L`, `r' = Lᵀ r`.
+    pub fn moved(&self, change: &MapFrameChange) -> SimilarityFit2d {
+        let Some((p0, _)) = self.origin else {
+            return *self;
+        };
+        let c = change.turn_scale;
+        // c e = p0 − d − c p0: the shift of the sums' origin the change brings.
+        let [cx, cy] = complex_product(c, p0);
+        let ce = [p0[0] - change.shift[0] - cx, p0[1] - change.shift[1] - cy];
+        let mut l = Matrix4::identity();
+        l.fixed_view_mut::<2, 2>(0, 2)
+            .copy_from(&(-complex_matrix(ce)));
+        l.fixed_view_mut::<2, 2>(2, 2).copy_from(&complex_matrix(c));
+        let lt = l.transpose();
+        SimilarityFit2d {
+            normal: lt * self.normal * l,
+            rhs: lt * self.rhs,
+            normal_unweighted: lt * self.normal_unweighted * l,
+            rhs_unweighted: lt * self.rhs_unweighted,
+            ..*self
+        }
+    }
+
+    /// The weighted sum of squared residuals at the best similarity, `Σ rᵢᵀ Wᵢ rᵢ`
+    /// (χ²-distributed with `2n − 4` degrees of freedom when the map is a similarity of the
+    /// GPS positions and their covariances are right); `None` while no similarity is fixed
+    /// (fewer than two distinct points).
+    pub fn weighted_residual(&self) -> Option<f64> {
+        // `solve` tells where the points fix no similarity.
+        self.solve().ok()?;
+        let solution = self.normal.cholesky()?.solve(&self.rhs);
+        let ssr = self.q2_weighted - self.rhs.dot(&solution);
+        ssr.is_finite().then_some(ssr.max(0.0))
+    }
+
+    /// The weighted residual at the best similarity, or, where the pairs fix none (one
+    /// pair, or a camera that stood still), at the best translation alone: no more than the
+    /// least the pairs allow.
+    fn least_residual(&self) -> f64 {
+        self.weighted_residual().unwrap_or_else(|| {
+            let n = self.normal.fixed_view::<2, 2>(0, 0).into_owned();
+            let r = self.rhs.fixed_rows::<2>(0).into_owned();
+            n.cholesky()
+                .map_or(0.0, |c| (self.q2_weighted - r.dot(&c.solve(&r))).max(0.0))
+        })
+    }
+
+    /// Whether the pairs of `other` (about the same origin) agree with this fit's: the
+    /// increase of the weighted residual when both are fitted with one similarity instead of
+    /// one each (the test of Chow 1960, χ² with four degrees of freedom, or fewer where one
+    /// of them holds too few pairs to fix a similarity) lies within `max_chi2`. Where even
+    /// both together fix no similarity there is nothing to test, and they agree.
+    pub fn agrees_with(&self, other: &SimilarityFit2d, max_chi2: f64) -> bool {
+        if self.pairs == 0 || other.pairs == 0 {
+            return true;
+        }
+        let mut both = *self;
+        if both.add_fit(other).is_err() {
+            return false;
+        }
+        both.weighted_residual()
+            .is_none_or(|joint| joint - self.least_residual() - other.least_residual() <= max_chi2)
     }
 
     /// The best similarity for the pairs so far.
@@ -301,6 +431,120 @@ mod tests {
         // The residual of 2-D noise of 0.5 m per axis is about 0.5 √2 m.
         let mean_residual = residual / 50.0;
         assert!((0.6..0.8).contains(&mean_residual), "{mean_residual}");
+    }
+
+    /// Fits about one origin of two stretches of a bent path with 0.5 m noise: the second
+    /// stretch's map points put into the `enu` frame by `second`.
+    fn two_stretches(
+        second: &SimilarityAlignment2d,
+        rng: &mut ChaCha8Rng,
+    ) -> (SimilarityFit2d, SimilarityFit2d) {
+        let truth = truth();
+        let origin = ([0.0, 0.0], truth.to_enu([0.0, 0.0]));
+        let mut fits = [origin; 2].map(|(p, q)| SimilarityFit2d::with_origin(p, q));
+        for i in 0..120 {
+            let s = f64::from(i) * 0.25;
+            let p = [s, if s > 15.0 { s - 15.0 } else { 0.0 }];
+            let (fit, alignment) = if s < 15.0 {
+                (&mut fits[0], &truth)
+            } else {
+                (&mut fits[1], second)
+            };
+            let [x, y] = alignment.to_enu(p);
+            let nx: f64 = StandardNormal.sample(rng);
+            let ny: f64 = StandardNormal.sample(rng);
+            fit.add(&pair(p, [x + 0.5 * nx, y + 0.5 * ny], 0.5))
+                .expect("valid pair");
+        }
+        let [first, second] = fits;
+        (first, second)
+    }
+
+    #[test]
+    fn the_weighted_residual_is_chi_squared_with_the_pairs_degrees_of_freedom() {
+        // 60 pairs, 2 × 60 − 4 = 116 degrees of freedom: over 50 draws the mean is about 116.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut sum = 0.0;
+        for _ in 0..50 {
+            let (first, _) = two_stretches(&truth(), &mut rng);
+            assert_eq!(first.pairs(), 60);
+            sum += first.weighted_residual().expect("determined");
+        }
+        let mean = sum / 50.0;
+        assert!((105.0..127.0).contains(&mean), "{mean}");
+    }
+
+    #[test]
+    fn stretches_of_one_similarity_agree_and_a_turned_one_does_not() {
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let mut agreed = 0;
+        for _ in 0..50 {
+            let (first, second) = two_stretches(&truth(), &mut rng);
+            agreed += usize::from(first.agrees_with(&second, 18.47));
+        }
+        // 99.9 % of draws agree.
+        assert!(agreed >= 48, "{agreed} of 50");
+        // The second stretch 3° and 1 m off: the path jumped where its frame says it did not.
+        let turned = SimilarityAlignment2d {
+            rotation_rad: truth().rotation_rad + 3f64.to_radians(),
+            translation_m: [121.0, -45.0],
+            ..truth()
+        };
+        let (first, second) = two_stretches(&turned, &mut rng);
+        assert!(!first.agrees_with(&second, 18.47));
+        assert!(!second.agrees_with(&first, 18.47));
+        // One pair fixes no similarity of its own, but is tested against the other's.
+        let origin = ([0.0, 0.0], truth().to_enu([0.0, 0.0]));
+        let mut one = SimilarityFit2d::with_origin(origin.0, origin.1);
+        one.add(&pair([3.0, 0.0], truth().to_enu([3.0, 0.0]), 0.5))
+            .expect("valid");
+        assert!(first.agrees_with(&one, 18.47));
+        let mut stray = SimilarityFit2d::with_origin(origin.0, origin.1);
+        let [x, y] = truth().to_enu([3.0, 0.0]);
+        stray
+            .add(&pair([3.0, 0.0], [x + 5.0, y], 0.5))
+            .expect("valid");
+        assert!(!first.agrees_with(&stray, 18.47));
+        assert!(!stray.agrees_with(&first, 18.47));
+        // Neither fixing a similarity, even together: nothing to test.
+        assert!(one.agrees_with(&stray, 18.47));
+    }
+
+    #[test]
+    fn a_moved_fit_is_the_fit_of_its_pairs_moved() {
+        let truth = truth();
+        let origin = ([1.0, 2.0], [100.0, 100.0]);
+        let change = MapFrameChange {
+            turn_scale: [0.8, 0.5],
+            shift: [-3.0, 7.0],
+        };
+        let mut fit = SimilarityFit2d::with_origin(origin.0, origin.1);
+        let mut moved = SimilarityFit2d::with_origin(origin.0, origin.1);
+        for i in 0..6 {
+            let p = [f64::from(i) * 2.0, (f64::from(i) * 0.7).sin()];
+            let q = truth.to_enu(p);
+            let q = [q[0] + 0.3 * f64::from(i % 3), q[1] - 0.2 * f64::from(i % 2)];
+            fit.add(&pair(p, q, 0.5)).expect("valid");
+            moved.add(&pair(change.apply(p), q, 0.5)).expect("valid");
+        }
+        let (a, b) = (
+            fit.moved(&change).solve().expect("fit"),
+            moved.solve().expect("fit"),
+        );
+        assert!((a.scale - b.scale).abs() < 1e-9, "{a:?} {b:?}");
+        assert!((a.rotation_rad - b.rotation_rad).abs() < 1e-9);
+        assert!((a.translation_m[0] - b.translation_m[0]).abs() < 1e-8);
+        assert!((a.translation_m[1] - b.translation_m[1]).abs() < 1e-8);
+        assert!((a.rms_residual_m - b.rms_residual_m).abs() < 1e-9);
+        let (wa, wb) = (
+            fit.moved(&change).weighted_residual(),
+            moved.weighted_residual(),
+        );
+        assert!((wa.expect("fit") - wb.expect("fit")).abs() < 1e-8);
+        // Back and forth is no change.
+        let inverse = change.inverse().expect("invertible");
+        let there_and_back = inverse.after(&change).apply([3.0, -4.0]);
+        assert!((there_and_back[0] - 3.0).abs() < 1e-12 && (there_and_back[1] + 4.0).abs() < 1e-12);
     }
 
     #[test]
