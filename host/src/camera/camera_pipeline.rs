@@ -28,7 +28,10 @@
 //! linked to it, nearest links first (at most [`MAX_SEGMENTS_PER_FIT`]), each taken in only
 //! where its fixes agree with the fit so far ([`SimilarityFit2d::agrees_with`], within
 //! [`LINK_AGREEMENT_CHI2`]): a place recognised in the wrong spot, or a map whose frame
-//! drifted since, puts the camera where the fixes say it was not. The fits keep only
+//! drifted since, puts the camera where the fixes say it was not. The segment before a
+//! recognised place is linked to the one after it too, through the jump
+//! ([`SimilarityFit2d::moved`]), so that the path's own continuation serves where the
+//! recognised map's segment contradicts the fixes. The fits keep only
 //! their sums (about one origin, so that they add up), so a segment costs a few hundred
 //! bytes and a fix the same at any hour. By default the fixes are not fused into the
 //! filter: the camera's path within a segment is its own.
@@ -54,7 +57,8 @@ use crate::georef::{
 use crate::link::SensorEvent;
 
 /// The most segments one segment's fit takes in (when the fixes are too few to span the
-/// alignment span, as in a GPS outage, the fit of all fixes serves instead).
+/// alignment span, as in a GPS outage, the fit of those taken serves, or the fit of all
+/// fixes where those fix no similarity).
 pub const MAX_SEGMENTS_PER_FIT: usize = 64;
 
 /// The χ² (four degrees of freedom: the similarity) beyond which a linked segment's fixes
@@ -161,8 +165,9 @@ struct Segment {
     fit: Option<SimilarityFit2d>,
     /// Its fixes' bounding box in the `enu` frame, `[min_e, min_n, max_e, max_n]`.
     span: Option<[f64; 4]>,
-    /// The segments in the same frame about it: the one before it along the path, or the
-    /// recognised map's segment it jumped into, and those linked to it in turn.
+    /// The segments linked to it: in the same frame, the one before it along the path, or
+    /// the recognised map's segment it jumped into, and those linked to it in turn; across a
+    /// recognised place, the segment before the jump and the one after, through the jump.
     links: Vec<Link>,
 }
 
