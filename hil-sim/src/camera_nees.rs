@@ -179,7 +179,7 @@ pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, 
 /// Of the frames where at least one run tested the NEES: the fraction whose run-averaged
 /// NEES lies within the bounds for the runs counted there, the fraction above them, the
 /// median of the run-averaged NEES, and how many frames were tested.
-fn fractions(runs: &[&[Option<f64>]], frames: usize) -> Fractions {
+pub(crate) fn fractions(runs: &[&[Option<f64>]], frames: usize) -> Fractions {
     let mut tested = 0usize;
     let mut within = 0usize;
     let mut above = 0usize;
@@ -220,8 +220,8 @@ fn fractions(runs: &[&[Option<f64>]], frames: usize) -> Fractions {
 
 /// What [`fractions`] finds: the shares of the tested frames within and above the bounds,
 /// the median run-averaged NEES, the frames tested, and the run-averaged NEES by frame.
-struct Fractions {
-    within: f64,
+pub(crate) struct Fractions {
+    pub(crate) within: f64,
     above: f64,
     median: f64,
     tested: usize,

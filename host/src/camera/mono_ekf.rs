@@ -600,6 +600,42 @@ impl MonoEkf {
         true
     }
 
+    /// Holds every inverse-depth feature's inverse depth at or above zero: a point seen lies
+    /// in front of the camera that first saw it, at most at infinity. Where the mean has
+    /// crossed zero, it is projected onto the constraint along the covariance (the
+    /// minimum-variance projection of an equality-constrained Kalman filter, Simon and
+    /// Chia 2002): `x -= P Dᵀ (D P Dᵀ)⁻¹ D x` over the violated depths `D x`, so that the
+    /// states correlated with them (the velocity, the other depths) move with them, and
+    /// the covariance is kept, as the constraint's projection of the mean alone leaves it.
+    /// A projection can push another depth below zero; a few passes take those in too.
+    pub fn hold_inverse_depths_positive(&mut self) {
+        const PASSES: usize = 4;
+        for _ in 0..PASSES {
+            let rows: Vec<usize> = self
+                .kinds
+                .iter()
+                .zip(&self.offsets)
+                .filter(|(k, o)| **k == FeatureKind::InverseDepth && self.x[**o + 5] < 0.0)
+                .map(|(_, o)| o + 5)
+                .collect();
+            if rows.is_empty() {
+                return;
+            }
+            let k = rows.len();
+            let d_p_dt = DMatrix::from_fn(k, k, |r, c| self.p[(rows[r], rows[c])]);
+            let violation = DVector::from_fn(k, |r, _| self.x[rows[r]]);
+            let n = self.x.len();
+            let p_dt = DMatrix::from_fn(n, k, |r, c| self.p[(r, rows[c])]);
+            if let Some(cholesky) = d_p_dt.cholesky() {
+                self.x -= p_dt * cholesky.solve(&violation);
+            }
+            // Exactly on the bound (rounding, or a depth whose variance is gone).
+            for &r in &rows {
+                self.x[r] = self.x[r].max(0.0);
+            }
+        }
+    }
+
     /// Updates with the camera's tilt: a camera mounted level on a ground robot has its x
     /// (right) and z (forward) axes horizontal, up to the ground's slope. `down_in_world` is
     /// the unit vector along gravity in the filter's world frame; the measurement is the
@@ -630,7 +666,11 @@ impl MonoEkf {
     /// backwards, its velocity along z (forward) too, zero with the same deviation (the
     /// inequality `v_z ≥ 0` held where it is violated). A single camera cannot tell a camera
     /// moving forwards past points in front of it from one moving backwards past points at
-    /// negative inverse depth; the vehicle can. Returns false (and leaves the state) when the
+    /// negative inverse depth; the vehicle can. The other half of that mirror is held too:
+    /// every inverse depth stays at or above zero ([`Self::hold_inverse_depths_positive`]).
+    /// Holding only the velocity leaves the filter, once noise has sent the depths below
+    /// zero while the camera was still at rest, stuck with the camera at rest and the
+    /// points behind it. Returns false (and leaves the state but for the depths) when the
     /// innovation covariance is not positive definite, as for a camera exactly at rest.
     pub fn update_forward_motion(&mut self, sideslip_sigma_rad: f64) -> bool {
         // The orientation (3..7) and the velocity (7..10), the only columns of H not zero.
@@ -654,7 +694,9 @@ impl MonoEkf {
         let sigma = sideslip_sigma_rad.tan() * self.x.rows(7, 3).norm();
         let p_ht = self.p.columns(FROM, LEN) * h.transpose();
         let s = &h * p_ht.rows(FROM, LEN) + DMatrix::identity(rows, rows) * (sigma * sigma);
-        self.apply_update(&p_ht, s, &innovation)
+        let updated = self.apply_update(&p_ht, s, &innovation);
+        self.hold_inverse_depths_positive();
+        updated
     }
 
     /// Updates with a measurement of where the camera was on the ground `back_s` seconds
@@ -1250,6 +1292,34 @@ mod tests {
         assert_eq!(filter.num_features(), 2);
         let pixel = filter.pixel(1).expect("in front");
         assert!((pixel[0] - 300.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_depth_below_zero_is_projected_onto_zero_and_moves_what_it_is_correlated_with() {
+        let mut filter = MonoEkf::new(camera(), MonoEkfOptions::default());
+        for pixel in [[100.0, 100.0], [300.0, 200.0], [500.0, 300.0]] {
+            filter.add_feature(pixel);
+        }
+        let rho = |filter: &MonoEkf, i: usize| filter.x[filter.offsets[i] + 5];
+        let [first, second] = [filter.offsets[0] + 5, filter.offsets[1] + 5];
+        // The first depth has crossed zero; the forward velocity is correlated with it
+        // (correlation 0.5), the second depth not at all.
+        filter.x[first] = -0.1;
+        let (sigma_rho, sigma_v) = (filter.p[(first, first)].sqrt(), filter.p[(9, 9)].sqrt());
+        filter.p[(first, 9)] = 0.5 * sigma_rho * sigma_v;
+        filter.p[(9, first)] = filter.p[(first, 9)];
+        let second_before = rho(&filter, 1);
+        let p_before = filter.p.clone();
+        filter.hold_inverse_depths_positive();
+        assert_eq!(rho(&filter, 0), 0.0);
+        assert_eq!(rho(&filter, 1), second_before);
+        assert!(rho(&filter, 2) >= 0.0);
+        // The velocity moves by its regression on the depth: 0.5 σ_v / σ_ρ × 0.1.
+        let expected = 0.5 * sigma_v / sigma_rho * 0.1;
+        assert!((filter.x[9] - expected).abs() < 1e-12, "{}", filter.x[9]);
+        // The covariance is left as it was.
+        assert_eq!(filter.p, p_before);
+        let _ = second;
     }
 }
 
