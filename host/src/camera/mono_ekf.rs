@@ -605,8 +605,8 @@ impl MonoEkf {
     /// crossed zero, it is projected onto the constraint along the covariance (the
     /// minimum-variance projection of an equality-constrained Kalman filter, Simon and
     /// Chia 2002): `x -= P Dᵀ (D P Dᵀ)⁻¹ D x` over the violated depths `D x`, so that the
-    /// states correlated with them (the velocity, the other depths) move with them, and
-    /// the covariance is kept, as the constraint's projection of the mean alone leaves it.
+    /// states correlated with them (the velocity, the other depths) move with them. The
+    /// covariance is kept: only the mean is projected.
     /// A projection can push another depth below zero; a few passes take those in too.
     pub fn hold_inverse_depths_positive(&mut self) {
         const PASSES: usize = 4;
@@ -1301,7 +1301,7 @@ mod tests {
             filter.add_feature(pixel);
         }
         let rho = |filter: &MonoEkf, i: usize| filter.x[filter.offsets[i] + 5];
-        let [first, second] = [filter.offsets[0] + 5, filter.offsets[1] + 5];
+        let first = filter.offsets[0] + 5;
         // The first depth has crossed zero; the forward velocity is correlated with it
         // (correlation 0.5), the second depth not at all.
         filter.x[first] = -0.1;
@@ -1319,7 +1319,6 @@ mod tests {
         assert!((filter.x[9] - expected).abs() < 1e-12, "{}", filter.x[9]);
         // The covariance is left as it was.
         assert_eq!(filter.p, p_before);
-        let _ = second;
     }
 }
 
