@@ -18,12 +18,17 @@
 //! position is left out: a single camera measures it only up to a scale the filter does not
 //! observe, so its error is no test of the covariance.
 
-use host::camera::{CameraPipelineOptions, MonoSlam, MonoSlamOptions, level_frame};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use host::camera::{
+    CameraPipelineOptions, MeasuredFeature, MonoSlam, MonoSlamOptions, level_frame,
+};
 use nalgebra::{Matrix3, UnitQuaternion};
 use serde::Serialize;
 
 use crate::landmark_sim::chi_square_bounds;
-use crate::world::{CameraRigOptions, CameraView, Scenario, Walkers, WorldKind};
+use crate::world::{CameraRigOptions, CameraView, Mover, RobotState, Scenario, Walkers, WorldKind};
 
 /// Confidence of the NEES bounds.
 const CONFIDENCE: f64 = 0.95;
@@ -44,6 +49,10 @@ pub struct CameraNeesOptions {
     pub movers: usize,
     pub rig: CameraRigOptions,
     pub slam: MonoSlamOptions,
+    /// Refuse every match farther than this from where the rendered truth puts its feature,
+    /// px: the camera method with a front end that never errs by more than this, to measure
+    /// what the larger errors cost. `None` (the default) refuses nothing.
+    pub truth_gate_px: Option<f64>,
     /// Draw a progress bar on stderr.
     pub progress: bool,
 }
@@ -61,6 +70,7 @@ impl Default for CameraNeesOptions {
             movers: 0,
             rig: CameraRigOptions::default(),
             slam: CameraPipelineOptions::default().slam,
+            truth_gate_px: None,
             progress: false,
         }
     }
@@ -94,6 +104,9 @@ pub struct CameraNeesReport {
     pub ideal_median_nees: f64,
     /// The ideal filter's run-averaged NEES at each frame.
     pub ideal_nees_by_frame: Vec<Option<f64>>,
+    /// How far the matches that updated the camera method's filter lay from the truth, over
+    /// every run ([`MatchErrors`]).
+    pub camera_match_errors: MatchErrors,
     /// Each run's mean camera-orientation error in the world (first camera) frame, degrees.
     pub camera_rotation_error_deg: Vec<f64>,
     /// Each run's local maps.
@@ -101,6 +114,110 @@ pub struct CameraNeesReport {
     /// Each run's places recognised by the history memory (their features come back into
     /// the filter without their correlations with the camera).
     pub camera_places_recognised: Vec<usize>,
+}
+
+/// The front end's errors: each match that updated the filter against the pixel where the
+/// camera, at its true pose, sees the point the feature was first seen on (the rendered
+/// world's own geometry, [`CameraView::point_seen`]).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct MatchErrors {
+    /// Matches scored.
+    pub matches: usize,
+    /// The distance's median, 90th and 99th percentiles, px.
+    pub median_px: f64,
+    pub p90_px: f64,
+    pub p99_px: f64,
+    /// Share of the matches more than 3 px off.
+    pub share_over_3px: f64,
+    /// Correlation of a feature's error (both axes) with its error in the frame before: 0
+    /// for errors independent from frame to frame, as the filter assumes.
+    pub frame_to_frame_correlation: f64,
+}
+
+/// The rendered truth of one run, frame by frame: where the robot was and the walkers.
+struct Truth {
+    view: CameraView,
+    states: Vec<RobotState>,
+    movers: Vec<Vec<Mover>>,
+}
+
+impl Truth {
+    /// The error of `found` in frame `frame`, px: the match less the pixel where the camera,
+    /// at its true pose, sees the point the feature's first pixel saw. A first sighting on
+    /// an outline may see past it while its patch follows the nearer surface, so of the
+    /// first pixel and the eight about it, the one whose point's image (shifted back by the
+    /// same offset) lies nearest the match is taken.
+    fn error_px(&self, frame: usize, found: &MeasuredFeature) -> Option<[f64; 2]> {
+        let (first_frame, first_px) = found.first_sighting;
+        let (seen_from, seen_at) = (self.states.get(first_frame)?, self.states.get(frame)?);
+        let (position, world_from_camera) = self.view.camera_pose(seen_at);
+        let mut best: Option<[f64; 2]> = None;
+        for dy in [-1.0, 0.0, 1.0] {
+            for dx in [-1.0, 0.0, 1.0] {
+                let pixel = [first_px[0] + dx, first_px[1] + dy];
+                let Some(point) = self
+                    .view
+                    .point_seen(seen_from, &self.movers[first_frame], pixel)
+                else {
+                    continue;
+                };
+                let in_camera = world_from_camera.inverse() * (point - position);
+                let Some(image) = self.view.camera().project(&in_camera) else {
+                    continue;
+                };
+                let error = [
+                    found.pixel[0] - (image[0] - dx),
+                    found.pixel[1] - (image[1] - dy),
+                ];
+                if best.is_none_or(|b| error[0].hypot(error[1]) < b[0].hypot(b[1])) {
+                    best = Some(error);
+                }
+            }
+        }
+        best
+    }
+}
+
+/// One feature's match errors: the frame and the error, px, in the order measured.
+type TrackErrors = Vec<(usize, [f64; 2])>;
+
+/// [`MatchErrors`] from each run's features' errors.
+fn match_errors(runs: &[Vec<TrackErrors>]) -> MatchErrors {
+    let mut distances: Vec<f64> = runs
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|(_, e)| e[0].hypot(e[1]))
+        .collect();
+    if distances.is_empty() {
+        return MatchErrors::default();
+    }
+    distances.sort_by(f64::total_cmp);
+    let quantile = |q: f64| distances[((distances.len() - 1) as f64 * q).round() as usize];
+    let (mut product, mut before, mut after) = (0.0, 0.0, 0.0);
+    for track in runs.iter().flatten() {
+        for pair in track.windows(2) {
+            let ((f0, e0), (f1, e1)) = (pair[0], pair[1]);
+            if f1 == f0 + 1 {
+                product += e0[0] * e1[0] + e0[1] * e1[1];
+                before += e0[0] * e0[0] + e0[1] * e0[1];
+                after += e1[0] * e1[0] + e1[1] * e1[1];
+            }
+        }
+    }
+    MatchErrors {
+        matches: distances.len(),
+        median_px: quantile(0.5),
+        p90_px: quantile(0.9),
+        p99_px: quantile(0.99),
+        share_over_3px: distances.iter().filter(|&&d| d > 3.0).count() as f64
+            / distances.len() as f64,
+        frame_to_frame_correlation: if before > 0.0 && after > 0.0 {
+            product / (before * after).sqrt()
+        } else {
+            0.0
+        },
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -124,6 +241,8 @@ struct RunResult {
     rotation_error_deg: f64,
     local_maps: usize,
     places_recognised: usize,
+    /// Each feature's match errors.
+    match_errors: Vec<TrackErrors>,
 }
 
 /// Runs the Monte-Carlo runs. See the [module documentation](self).
@@ -170,6 +289,12 @@ pub fn run_camera_nees(options: &CameraNeesOptions) -> Result<CameraNeesReport, 
         ideal_fraction_above: ideal.above,
         ideal_median_nees: ideal.median,
         ideal_nees_by_frame: ideal.by_frame,
+        camera_match_errors: match_errors(
+            &results
+                .iter()
+                .map(|r| r.match_errors.clone())
+                .collect::<Vec<_>>(),
+        ),
         camera_rotation_error_deg: results.iter().map(|r| r.rotation_error_deg).collect(),
         camera_local_maps: results.iter().map(|r| r.local_maps).collect(),
         camera_places_recognised: results.iter().map(|r| r.places_recognised).collect(),
@@ -258,6 +383,25 @@ fn run_one(
     let walkers = Walkers::new(&scenario, options.movers, seed);
     let camera = *view.camera();
     let mut slam = MonoSlam::new(camera, options.slam);
+    let rendered = Arc::new(Truth {
+        view: view.clone(),
+        states: (0..frames)
+            .map(|f| scenario.pose_at(f as f64 / options.rate_hz))
+            .collect(),
+        movers: (0..frames)
+            .map(|f| walkers.at(f as f64 / options.rate_hz))
+            .collect(),
+    });
+    if let Some(gate_px) = options.truth_gate_px {
+        let rendered = Arc::clone(&rendered);
+        slam.check_matches_with(move |frame, found| {
+            rendered
+                .error_px(frame, found)
+                .is_some_and(|e| e[0].hypot(e[1]) <= gate_px)
+        });
+    }
+    // By first sighting: its frame and pixel (bits).
+    let mut tracks: HashMap<(usize, [u64; 2]), TrackErrors> = HashMap::new();
     // `world_from_camera` at the first frame, and where the current local map started.
     let first = view.camera_pose(&scenario.pose_at(0.0)).1;
     let mut origin = first;
@@ -270,6 +414,15 @@ fn run_one(
         let (_, truth) = view.camera_pose(&state);
         let image = view.render(&state, &walkers.at(t_s), frame as u64);
         let report = slam.process(t_s, &image);
+        for found in &report.measurements {
+            if let Some(error) = rendered.error_px(frame, found) {
+                let (first_frame, first_px) = found.first_sighting;
+                tracks
+                    .entry((first_frame, first_px.map(f64::to_bits)))
+                    .or_default()
+                    .push((frame, error));
+            }
+        }
         if slam.stats().local_maps != local_maps {
             local_maps = slam.stats().local_maps;
             // The map's frame: the camera there or, held level, the level frame of its
@@ -302,6 +455,7 @@ fn run_one(
         rotation_error_deg: (rotation_error_rad / frames as f64).to_degrees(),
         local_maps,
         places_recognised: slam.stats().places_recognised,
+        match_errors: tracks.into_values().collect(),
     }
 }
 
@@ -338,6 +492,16 @@ mod tests {
             "{report:?}"
         );
         assert!(report.camera_rotation_error_deg[0] < 2.0, "{report:?}");
+        let errors = &report.camera_match_errors;
+        assert!(errors.matches > 50 && errors.median_px < 1.0, "{errors:?}");
+        // With the truth's gate no match that updated the filter lies beyond it.
+        let gated = run_camera_nees(&CameraNeesOptions {
+            truth_gate_px: Some(1.0),
+            ..options.clone()
+        })
+        .expect("runs");
+        let errors = &gated.camera_match_errors;
+        assert!(errors.matches > 0 && errors.p99_px <= 1.0, "{errors:?}");
         let past_the_last_seed = CameraNeesOptions {
             seed: u64::MAX,
             runs: 2,
@@ -363,6 +527,28 @@ mod tests {
             run_camera_nees(&indoor),
             Err(CameraNeesError::World)
         ));
+    }
+
+    #[test]
+    fn match_errors_give_their_spread_and_how_they_carry_from_frame_to_frame() {
+        let steady: TrackErrors = (0..10).map(|f| (f, [1.0, 0.0])).collect();
+        let errors = match_errors(&[vec![steady]]);
+        assert_eq!(errors.matches, 10);
+        assert_eq!(
+            (errors.median_px, errors.p99_px, errors.share_over_3px),
+            (1.0, 1.0, 0.0)
+        );
+        assert!((errors.frame_to_frame_correlation - 1.0).abs() < 1e-12);
+        let flipping: TrackErrors = (0..10)
+            .map(|f| (f, [0.0, if f % 2 == 0 { 4.0 } else { -4.0 }]))
+            .collect();
+        let errors = match_errors(&[vec![flipping]]);
+        assert_eq!(errors.share_over_3px, 1.0);
+        assert!((errors.frame_to_frame_correlation + 1.0).abs() < 1e-12);
+        // Frames apart are no pair; nothing measured scores nothing.
+        let apart = vec![(0, [1.0, 0.0]), (2, [1.0, 0.0])];
+        assert_eq!(match_errors(&[vec![apart]]).frame_to_frame_correlation, 0.0);
+        assert_eq!(match_errors(&[]).matches, 0);
     }
 
     #[test]

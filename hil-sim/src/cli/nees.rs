@@ -2,7 +2,7 @@
 //! a single global EKF and the ideal EKF, or of the camera method.
 
 use super::CliResult;
-use super::parsers::parse_sigma;
+use super::parsers::{parse_pixels, parse_sigma};
 
 /// Filter consistency: Monte-Carlo runs in a seeded world, the EKF submap filter, a single
 /// global EKF and the ideal EKF (true data association, Jacobians at the true state; the
@@ -54,6 +54,12 @@ pub struct NeesArgs {
     /// move in any direction.
     #[arg(long)]
     camera_sideslip_deg: Option<f64>,
+    /// Camera only: refuse every match farther than this from where the rendered truth puts
+    /// its feature, px. The camera method then runs with a front end that never errs by
+    /// more than this, which measures what its larger errors cost the filter (a diagnostic;
+    /// a robot has no truth). The report's `camera_match_errors` gives the errors either way.
+    #[arg(long, value_parser = parse_pixels)]
+    truth_gate_px: Option<f64>,
     /// Landmarks per local map of the submap filter (ekf-submap).
     #[arg(long, default_value_t = 30)]
     local_map_landmarks: usize,
@@ -73,10 +79,14 @@ pub fn run(args: NeesArgs) -> CliResult {
     if args.method == Method::Camera {
         return run_camera(args);
     }
-    if args.movers > 0 || args.camera_tilt_deg.is_some() || args.camera_sideslip_deg.is_some() {
+    if args.movers > 0
+        || args.camera_tilt_deg.is_some()
+        || args.camera_sideslip_deg.is_some()
+        || args.truth_gate_px.is_some()
+    {
         return Err(
-            "--movers, --camera-tilt-deg and --camera-sideslip-deg are for --method camera: the laser \
-                    filters' world has no walkers and no camera"
+            "--movers, --camera-tilt-deg, --camera-sideslip-deg and --truth-gate-px are for \
+                    --method camera: the laser filters' world has no walkers and no camera"
                 .into(),
         );
     }
@@ -133,6 +143,7 @@ fn run_camera(args: NeesArgs) -> CliResult {
             forward_motion: super::camera_args::forward_motion_prior(args.camera_sideslip_deg)?,
             ..defaults.slam
         },
+        truth_gate_px: args.truth_gate_px,
         progress: true,
         ..defaults
     };

@@ -1,5 +1,5 @@
-//! Value parsers of the subcommands' flags: numbers in a range (standard deviations, weights,
-//! fractions) and a geodetic datum.
+//! Value parsers of the subcommands' flags: numbers in a range (standard deviations,
+//! distances in pixels, weights, fractions) and a geodetic datum.
 
 /// Parses a number in `range` (finite); `rule` says what the range is in the error.
 pub fn parse_in(
@@ -21,6 +21,15 @@ pub fn parse_sigma(text: &str) -> Result<f64, String> {
         text,
         0.0..=f64::INFINITY,
         "a standard deviation must be a finite number of at least 0",
+    )
+}
+
+/// Parses a distance in pixels: a finite number, at least 0.
+pub fn parse_pixels(text: &str) -> Result<f64, String> {
+    parse_in(
+        text,
+        0.0..=f64::INFINITY,
+        "a distance in pixels must be a finite number of at least 0",
     )
 }
 

@@ -44,7 +44,7 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
         eprintln!(
             "hil-sim: the camera method took {:.1} ms per frame on average; p50 {:.1}, p99 {:.1}, \
              max {:.1} ms over {} frames; GPS scale {} against the truth's ({} fixes); position \
-             error {} RMS, {} at the end, over {:.0} m",
+             error {} RMS, {} at the end, over {:.0} m; the geo-referenced path's scale {}",
             frames.mean_ms,
             frames.p50_ms,
             frames.p99_ms,
@@ -57,6 +57,9 @@ pub fn report(summary: &hil_sim::run::RunSummary, out: &std::path::Path) -> CliR
             metres(camera.rms_position_m),
             metres(camera.final_position_m),
             camera.travelled_m,
+            camera
+                .geo_referenced_scale_error
+                .map_or("—".to_string(), |e| format!("{:+.2} %", e * 100.0)),
         );
     }
     if let Some(parts) = &timing.slam_parts_s {

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use host::camera::{CameraPipeline, CameraPose, trajectory_error};
 use host::georef::{LandmarkInEnu, write_geojson, write_kml};
+use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use super::host_side::CameraRecord;
@@ -38,6 +39,12 @@ pub struct CameraOutcome {
     pub gps_residual_rms_m: Option<f64>,
     /// RMS horizontal distance of the geo-referenced camera from its true position, m.
     pub rms_position_m: Option<f64>,
+    /// The scale of the best similarity taking the geo-referenced path (the map as it is
+    /// exported, each segment placed by its own fit) onto the true path on the ground (east
+    /// and north), less one: how far the exported map's distances are from the true ones. [`Self::scale_error`] is that of
+    /// the camera method's own units over the whole run, one number for a path whose local
+    /// maps each have their own.
+    pub geo_referenced_scale_error: Option<f64>,
     /// The same at the last frame, m.
     pub final_position_m: Option<f64>,
     /// Mean angle between the geo-referenced camera's orientation and the true one, degrees.
@@ -84,6 +91,7 @@ impl CameraOutcome {
             scale_error: None,
             gps_residual_rms_m: alignment.map(|a| a.rms_residual_m),
             rms_position_m: None,
+            geo_referenced_scale_error: None,
             final_position_m: None,
             mean_rotation_error_deg: None,
             travelled_m,
@@ -106,6 +114,16 @@ impl CameraOutcome {
             let n = errors.len() as f64;
             outcome.rms_position_m = Some((errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt());
             outcome.final_position_m = errors.last().copied();
+            // On the ground: GPS places the path east and north, not up.
+            let level = |poses: &mut Vec<(Vector3<f64>, UnitQuaternion<f64>)>| {
+                poses.iter_mut().for_each(|(p, _)| p.z = 0.0);
+            };
+            let mut placed: Vec<_> = in_enu.iter().map(|p| (p.position, p.orientation)).collect();
+            let mut true_ground = truth.clone();
+            level(&mut placed);
+            level(&mut true_ground);
+            outcome.geo_referenced_scale_error =
+                trajectory_error(&placed, &true_ground).map(|e| e.scale - 1.0);
             outcome.mean_rotation_error_deg = Some(
                 in_enu
                     .iter()

@@ -332,30 +332,13 @@ impl CameraView {
         let h = self.options.height_m;
         let [cw, ch] = self.canvas_size;
         let origin = [state.x_m, state.y_m];
-        let (sin, cos) = state.theta_rad.sin_cos();
-        let forward = [cos, sin];
-        let right = [sin, -cos];
-        let mover_solids: Vec<Solid> = movers
-            .iter()
-            .map(|m| Solid::Post {
-                center_m: m.center_m,
-                radius_m: m.radius_m,
-                height_m: m.height_m,
-                texture: MOVER_TEXTURE_BASE + m.id,
-                material: CLOTHES,
-            })
-            .collect();
+        let mover_solids = mover_solids(movers);
         let mut out = vec![0.0f32; cw * ch];
         let mut on_mover = vec![false; cw * ch];
         let mut hits: Vec<(f64, &Solid)> = Vec::new();
         for column in 0..cw {
             let u = (column as i64 + self.canvas_origin[0]) as f64;
-            let xn = (u - camera.cx_px) / camera.fx_px;
-            let norm = (1.0 + xn * xn).sqrt();
-            let dir = [
-                (forward[0] + xn * right[0]) / norm,
-                (forward[1] + xn * right[1]) / norm,
-            ];
+            let (dir, norm) = self.column_ray(state, u);
             hits.clear();
             for solid in self.solids.iter().chain(&mover_solids) {
                 if let Some(t) = entry_range(solid, origin, dir)
@@ -414,6 +397,61 @@ impl CameraView {
             }
         }
         (out, on_mover)
+    }
+
+    /// The world point (z up) the camera on the robot at `state` sees at `pixel` of its
+    /// frame, with the `movers` there; `None` where it sees the sky or the lens has no ray.
+    pub fn point_seen(
+        &self,
+        state: &RobotState,
+        movers: &[Mover],
+        pixel: [f64; 2],
+    ) -> Option<Vector3<f64>> {
+        let camera = &self.options.camera;
+        let ray = camera.ray(pixel).filter(|r| r.z > 0.0)?;
+        // The ideal image's column and row the pixel's ray falls on.
+        let u = camera.fx_px * ray.x / ray.z + camera.cx_px;
+        let v = camera.fy_px * ray.y / ray.z + camera.cy_px;
+        let (dir, norm) = self.column_ray(state, u);
+        let k = (camera.cy_px - v) / (camera.fy_px * norm);
+        let (origin, h) = ([state.x_m, state.y_m], self.options.height_m);
+        let footprint = |t: f64| t * norm / camera.fx_px;
+        let range = self
+            .solids
+            .iter()
+            .chain(&mover_solids(movers))
+            .filter_map(|solid| {
+                let t = entry_range(solid, origin, dir)?;
+                if t > self.options.max_range_m {
+                    return None;
+                }
+                self.shade(solid, origin, dir, h, k, t, &footprint)
+                    .map(|(range, _)| range)
+            })
+            .min_by(f64::total_cmp)
+            .or_else(|| (k < 0.0).then(|| h / -k))?;
+        Some(Vector3::new(
+            origin[0] + dir[0] * range,
+            origin[1] + dir[1] * range,
+            h + k * range,
+        ))
+    }
+
+    /// The ground-plane direction (unit) of the ideal image's column `u` for the camera on
+    /// the robot at `state`, and the length of its ray `(x/z, 1)` in the camera's frame.
+    fn column_ray(&self, state: &RobotState, u: f64) -> ([f64; 2], f64) {
+        let camera = &self.options.camera;
+        let (sin, cos) = state.theta_rad.sin_cos();
+        let (forward, right) = ([cos, sin], [sin, -cos]);
+        let xn = (u - camera.cx_px) / camera.fx_px;
+        let norm = (1.0 + xn * xn).sqrt();
+        (
+            [
+                (forward[0] + xn * right[0]) / norm,
+                (forward[1] + xn * right[1]) / norm,
+            ],
+            norm,
+        )
     }
 
     /// Where this pixel's ray (in a column of 2D direction `dir`, rising `k` per metre from
@@ -530,6 +568,20 @@ impl CameraView {
 
 /// The range at which a column's 2D ray from `origin` along unit `dir` first meets the
 /// solid's outline (for a crown, the nearest point of its ball's slice, a lower bound).
+/// The walkers as solids to draw.
+fn mover_solids(movers: &[Mover]) -> Vec<Solid> {
+    movers
+        .iter()
+        .map(|m| Solid::Post {
+            center_m: m.center_m,
+            radius_m: m.radius_m,
+            height_m: m.height_m,
+            texture: MOVER_TEXTURE_BASE + m.id,
+            material: CLOTHES,
+        })
+        .collect()
+}
+
 fn entry_range(solid: &Solid, origin: [f64; 2], dir: [f64; 2]) -> Option<f64> {
     match *solid {
         Solid::Wall { a_m, b_m, .. } => Shape::Segment { a_m, b_m }.intersect(origin, dir),
@@ -699,6 +751,56 @@ mod tests {
         assert_ne!(at(301.0), 60.0);
     }
 
+    /// A walker 0.5 m wide and 1.75 m tall, `distance_m` straight ahead of the robot at
+    /// `state`.
+    fn walker_ahead(state: &RobotState, distance_m: f64) -> Mover {
+        let (sin, cos) = state.theta_rad.sin_cos();
+        Mover {
+            center_m: [state.x_m + distance_m * cos, state.y_m + distance_m * sin],
+            radius_m: 0.25,
+            height_m: 1.75,
+            id: 3,
+        }
+    }
+
+    #[test]
+    fn the_point_a_pixel_sees_projects_back_onto_it_and_lies_on_what_it_sees() {
+        let scenario = outdoor();
+        let view = CameraView::new(&scenario, CameraRigOptions::default());
+        let state = scenario.pose_at(6.0);
+        let (position, world_from_camera) = view.camera_pose(&state);
+        let (mut ground, mut solid, mut sky) = (0, 0, 0);
+        for v in (10..480).step_by(40) {
+            for u in (10..640).step_by(40) {
+                let pixel = [f64::from(u) + 0.3, f64::from(v) - 0.2];
+                let Some(point) = view.point_seen(&state, &[], pixel) else {
+                    sky += 1;
+                    continue;
+                };
+                let in_camera = world_from_camera.inverse() * (point - position);
+                let back = view.camera().project(&in_camera).expect("in front");
+                assert!(
+                    (back[0] - pixel[0]).hypot(back[1] - pixel[1]) < 1e-6,
+                    "{pixel:?} came back at {back:?}"
+                );
+                if point.z.abs() < 1e-9 {
+                    ground += 1;
+                } else {
+                    solid += 1;
+                }
+            }
+        }
+        assert!(ground > 0 && solid > 0 && sky > 0, "{ground} {solid} {sky}");
+        // A walker right ahead is what the centre pixel sees.
+        let point = view
+            .point_seen(&state, &[walker_ahead(&state, 3.0)], [319.5, 239.5])
+            .expect("the walker");
+        assert!(
+            ((point - position).xy().norm() - 2.75).abs() < 1e-6,
+            "{point}"
+        );
+    }
+
     #[test]
     fn a_walker_ahead_hides_what_is_behind_it() {
         let scenario = outdoor();
@@ -709,13 +811,7 @@ mod tests {
         };
         let view = CameraView::new(&scenario, options);
         let state = scenario.pose_at(4.0);
-        let (sin, cos) = state.theta_rad.sin_cos();
-        let walker = Mover {
-            center_m: [state.x_m + 5.0 * cos, state.y_m + 5.0 * sin],
-            radius_m: 0.25,
-            height_m: 1.75,
-            id: 3,
-        };
+        let walker = walker_ahead(&state, 5.0);
         let without = view.render(&state, &[], 0);
         let (with, mask) = view.render_with_movers(&state, &[walker], 0);
         if std::env::var_os("CAMERA_VIEW_PNG").is_some() {

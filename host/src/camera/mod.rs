@@ -35,7 +35,7 @@ pub use forward_motion_prior::ForwardMotionPrior;
 pub use known_target::{KnownTarget, TargetCorner, TargetError, parse_known_target};
 pub use level_prior::{LevelPrior, level_frame};
 pub use mono_ekf::{MonoEkf, MonoEkfOptions};
-pub use mono_slam::{FrameReport, MonoSlam, MonoSlamOptions, MonoSlamStats};
+pub use mono_slam::{FrameReport, MeasuredFeature, MonoSlam, MonoSlamOptions, MonoSlamStats};
 pub use pinhole::PinholeCamera;
 pub use sequence::{CameraSequence, SequenceError, SequenceLayout};
 pub use trajectory_error::{TrajectoryError, trajectory_error};

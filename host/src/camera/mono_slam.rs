@@ -26,6 +26,8 @@
 //! (at the band's 99 %, three in a row happen to a static point once in a million) is deleted
 //! as moving.
 
+use std::sync::Arc;
+
 use image::GrayImage;
 use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
@@ -204,6 +206,32 @@ pub struct FrameReport {
     /// `rotation * before + translation` (the same for every point of the current local
     /// map), as `(translation, rotation)`.
     pub world_jump: Option<WorldJump>,
+    /// The matches that updated the filter, each with the feature's first sighting.
+    pub measurements: Vec<MeasuredFeature>,
+}
+
+/// A feature found in a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredFeature {
+    /// Where the feature was first seen: the frame's number (from 0) and the pixel. A
+    /// feature has one first sighting, so this names it across frames.
+    pub first_sighting: (usize, [f64; 2]),
+    /// Where it was found, px.
+    pub pixel: [f64; 2],
+}
+
+/// A test every match must pass before the filter sees it, given the frame's number (from
+/// 0) and the match (see [`MonoSlam::check_matches_with`]).
+type MatchTest = dyn Fn(usize, &MeasuredFeature) -> bool + Send + Sync;
+
+/// A [`MatchTest`], shared by the clones of a run.
+#[derive(Clone)]
+struct MatchCheck(Arc<MatchTest>);
+
+impl std::fmt::Debug for MatchCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("MatchCheck")
+    }
 }
 
 /// A change of the world frame's coordinates: `after = rotation * before + translation`, as
@@ -245,6 +273,8 @@ type Match = (usize, [f64; 2]);
 #[derive(Clone, Debug)]
 pub struct MonoSlam {
     options: MonoSlamOptions,
+    /// See [`MonoSlam::check_matches_with`].
+    match_check: Option<MatchCheck>,
     filter: MonoEkf,
     tracks: Vec<Track>,
     last_time_s: Option<f64>,
@@ -266,6 +296,7 @@ impl MonoSlam {
     /// A run with `camera`, starting at the world origin.
     pub fn new(camera: PinholeCamera, options: MonoSlamOptions) -> Self {
         MonoSlam {
+            match_check: None,
             filter: MonoEkf::new(camera, options.ekf),
             options,
             tracks: Vec::new(),
@@ -281,6 +312,17 @@ impl MonoSlam {
             history: CameraHistory::new(&options.history),
             place_recognised: None,
         }
+    }
+
+    /// Refuses every match `check` rejects before the filter sees it, as if the feature had
+    /// not been found. For measuring what the front end's errors cost: the simulator refuses
+    /// matches its rendered truth contradicts (`hil-sim nees --method camera
+    /// --truth-gate-px`).
+    pub fn check_matches_with(
+        &mut self,
+        check: impl Fn(usize, &MeasuredFeature) -> bool + Send + Sync + 'static,
+    ) {
+        self.match_check = Some(MatchCheck(Arc::new(check)));
     }
 
     /// The filter.
@@ -496,11 +538,27 @@ impl MonoSlam {
         }
         self.last_time_s = Some(time_s);
         self.place_recognised = None;
-        let (searched, found) = self.search(image);
+        let (searched, mut found) = self.search(image);
+        if let Some(MatchCheck(check)) = &self.match_check {
+            found.retain(|((index, pixel), _, _)| {
+                let candidate = MeasuredFeature {
+                    first_sighting: self.tracks[*index].appearance.sighting(),
+                    pixel: *pixel,
+                };
+                check(self.frame, &candidate)
+            });
+        }
         let matches: Vec<Match> = found.iter().map(|(m, _, _)| *m).collect();
         let correlations: Vec<f32> = found.iter().map(|(_, _, c)| *c).collect();
         let predictions: Vec<Prediction> = found.into_iter().map(|(_, p, _)| p).collect();
         let measured = self.measure(&matches, &predictions);
+        let measurements: Vec<MeasuredFeature> = measured
+            .iter()
+            .map(|&(index, pixel)| MeasuredFeature {
+                first_sighting: self.tracks[index].appearance.sighting(),
+                pixel,
+            })
+            .collect();
         for &(index, _) in &measured {
             self.tracks[index].found += 1;
             self.tracks[index].last_seen_frame = self.frame;
@@ -570,6 +628,7 @@ impl MonoSlam {
             corners_moving,
             place_recognised: self.place_recognised.map(|(map, _)| map),
             world_jump: self.place_recognised.map(|(_, jump)| jump),
+            measurements,
         }
     }
 
@@ -1344,6 +1403,35 @@ mod tests {
             let y = WALL_DEPTH_M * (f64::from(v) - c.cy_px) / c.fy_px;
             image::Luma([wall(x, y).clamp(0.0, 255.0) as u8])
         })
+    }
+
+    #[test]
+    fn each_measurement_names_its_feature_and_a_refused_match_never_reaches_the_filter() {
+        let mut free = MonoSlam::new(camera(), MonoSlamOptions::default());
+        let mut refused = MonoSlam::new(camera(), MonoSlamOptions::default());
+        refused.check_matches_with(|_, _| false);
+        let mut first_sightings = std::collections::HashSet::new();
+        for frame in 0..10 {
+            let time_s = f64::from(frame) / 30.0;
+            let image = view(0.5 * time_s);
+            let report = free.process(time_s, &image);
+            assert_eq!(report.measurements.len(), report.measured);
+            for found in &report.measurements {
+                // Named by a sighting from an earlier frame, where it was added.
+                let key = (
+                    found.first_sighting.0,
+                    found.first_sighting.1.map(f64::to_bits),
+                );
+                assert!(first_sightings.contains(&key), "{found:?} in frame {frame}");
+            }
+            for pixel in &report.added_pixels {
+                first_sightings.insert((frame as usize, pixel.map(f64::to_bits)));
+            }
+            let report = refused.process(time_s, &image);
+            assert_eq!((report.measured, report.matched), (0, 0));
+            assert!(report.measurements.is_empty());
+        }
+        assert!(free.stats().measured > 100, "{:?}", free.stats());
     }
 
     #[test]
