@@ -379,12 +379,9 @@ fn run_one(
     bar: &indicatif::ProgressBar,
 ) -> RunResult {
     let scenario = Scenario::generate_for(options.world, seed, options.duration_s);
-    let view = CameraView::new(&scenario, options.rig);
     let walkers = Walkers::new(&scenario, options.movers, seed);
-    let camera = *view.camera();
-    let mut slam = MonoSlam::new(camera, options.slam);
     let rendered = Arc::new(Truth {
-        view: view.clone(),
+        view: CameraView::new(&scenario, options.rig),
         states: (0..frames)
             .map(|f| scenario.pose_at(f as f64 / options.rate_hz))
             .collect(),
@@ -392,6 +389,8 @@ fn run_one(
             .map(|f| walkers.at(f as f64 / options.rate_hz))
             .collect(),
     });
+    let view = &rendered.view;
+    let mut slam = MonoSlam::new(*view.camera(), options.slam);
     if let Some(gate_px) = options.truth_gate_px {
         let rendered = Arc::clone(&rendered);
         slam.check_matches_with(move |frame, found| {
@@ -403,16 +402,16 @@ fn run_one(
     // By first sighting: its frame and pixel (bits).
     let mut tracks: HashMap<(usize, [u64; 2]), TrackErrors> = HashMap::new();
     // `world_from_camera` at the first frame, and where the current local map started.
-    let first = view.camera_pose(&scenario.pose_at(0.0)).1;
+    let first = view.camera_pose(&rendered.states[0]).1;
     let mut origin = first;
     let mut camera_nees = Vec::with_capacity(frames);
     let mut local_maps = 1;
     let mut rotation_error_rad = 0.0;
     for frame in 0..frames {
         let t_s = frame as f64 / options.rate_hz;
-        let state = scenario.pose_at(t_s);
-        let (_, truth) = view.camera_pose(&state);
-        let image = view.render(&state, &walkers.at(t_s), frame as u64);
+        let state = &rendered.states[frame];
+        let (_, truth) = view.camera_pose(state);
+        let image = view.render(state, &rendered.movers[frame], frame as u64);
         let report = slam.process(t_s, &image);
         for found in &report.measurements {
             if let Some(error) = rendered.error_px(frame, found) {
@@ -443,7 +442,7 @@ fn run_one(
     }
     let ideal = crate::camera_ideal::ideal_orientation_nees(
         &scenario,
-        &view,
+        view,
         &options.slam,
         frames,
         options.rate_hz,

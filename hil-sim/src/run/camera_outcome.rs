@@ -8,7 +8,7 @@ use std::path::Path;
 
 use host::camera::{CameraPipeline, CameraPose, trajectory_error};
 use host::georef::{LandmarkInEnu, write_geojson, write_kml};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::host_side::CameraRecord;
@@ -41,9 +41,9 @@ pub struct CameraOutcome {
     pub rms_position_m: Option<f64>,
     /// The scale of the best similarity taking the geo-referenced path (the map as it is
     /// exported, each segment placed by its own fit) onto the true path on the ground (east
-    /// and north), less one: how far the exported map's distances are from the true ones. [`Self::scale_error`] is that of
-    /// the camera method's own units over the whole run, one number for a path whose local
-    /// maps each have their own.
+    /// and north), less one: how far the exported map's distances are from the true ones.
+    /// [`Self::scale_error`] is that of the camera method's own units over the whole run,
+    /// one number for a path whose local maps each have their own.
     pub geo_referenced_scale_error: Option<f64>,
     /// The same at the last frame, m.
     pub final_position_m: Option<f64>,
@@ -115,13 +115,12 @@ impl CameraOutcome {
             outcome.rms_position_m = Some((errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt());
             outcome.final_position_m = errors.last().copied();
             // On the ground: GPS places the path east and north, not up.
-            let level = |poses: &mut Vec<(Vector3<f64>, UnitQuaternion<f64>)>| {
-                poses.iter_mut().for_each(|(p, _)| p.z = 0.0);
-            };
-            let mut placed: Vec<_> = in_enu.iter().map(|p| (p.position, p.orientation)).collect();
-            let mut true_ground = truth.clone();
-            level(&mut placed);
-            level(&mut true_ground);
+            let on_ground = |(p, q): (Vector3<f64>, _)| (Vector3::new(p.x, p.y, 0.0), q);
+            let placed: Vec<_> = in_enu
+                .iter()
+                .map(|p| on_ground((p.position, p.orientation)))
+                .collect();
+            let true_ground: Vec<_> = truth.iter().copied().map(on_ground).collect();
             outcome.geo_referenced_scale_error =
                 trajectory_error(&placed, &true_ground).map(|e| e.scale - 1.0);
             outcome.mean_rotation_error_deg = Some(
