@@ -114,6 +114,8 @@ impl RotatedScan {
         match blocked.words_per_row() {
             // The 256-pixel rasters of the SLAM and the benchmark: a row is one vector.
             4 => self.count_rows::<4>(blocked, rows, first_row, first_word, shift),
+            // The 512-pixel rasters of the wide loop-closure search.
+            8 => self.count_rows::<8>(blocked, rows, first_row, first_word, shift),
             words => {
                 let mut uncovered = 0;
                 for &row in rows {
@@ -309,6 +311,13 @@ mod tests {
     fn test_uncovered_matches_direct_drawing_across_words() {
         // Offsets of more than a word, so that the drawing's words slide past the raster's.
         check_against_direct_drawing([200, 40], [70, 3]);
+    }
+
+    #[test]
+    fn test_uncovered_matches_direct_drawing_on_the_slam_rasters() {
+        // The 256- and 512-pixel rasters, whose rows are counted as fixed-size arrays.
+        check_against_direct_drawing([256, 24], [70, 2]);
+        check_against_direct_drawing([512, 24], [70, 2]);
     }
 
     #[test]
