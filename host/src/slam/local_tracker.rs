@@ -50,8 +50,13 @@
 //! The pose found goes into both active submaps when the [`MotionFilter`] admits the scan (the
 //! robot moved or turned enough since the last scan inserted); the older is finished when the
 //! newer has received [`SlamOptions::scans_per_submap`] scans.
+//!
+//! The searches around each guess, and the alignments from what they find, run side by side
+//! on the machine's cores (`rayon`) and are taken in the order one after the other would take
+//! them, so a scan's pose does not depend on how many cores there are.
 
 use nalgebra::Matrix3;
+use rayon::prelude::*;
 
 use super::icp::{PosePrior, align_near};
 use super::motion_filter::MotionFilter;
@@ -62,7 +67,7 @@ use super::slam_submap::{SlamSubmap, SubmapFit};
 use super::tracking_check::TrackingCheck;
 use super::window_matcher::window_matcher;
 use crate::geometry::Pose2;
-use crate::scan_match::{FastMatcher, Scan};
+use crate::scan_match::{FastMatcher, PreparedReference, Scan};
 
 /// What tracking made of one scan.
 #[derive(Clone, Debug)]
@@ -257,14 +262,14 @@ impl LocalTracker {
             let mut guesses = vec![last_pose];
             // Around the prediction, and around standing still: a robot that stops turning or
             // driving leaves the prediction a whole step off.
-            for guess in [motion, Pose2::IDENTITY] {
-                if let Ok(found) = self.wide_search.match_prepared(&prepared, scan, guess) {
-                    guesses.push(last_pose * found.reference_from_new);
-                }
-            }
-            for guess in guesses {
-                self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
-            }
+            let searches = [(&prepared, motion), (&prepared, Pose2::IDENTITY)];
+            guesses.extend(
+                search_each(&self.wide_search, scan, &searches)
+                    .into_iter()
+                    .flatten()
+                    .map(|found| last_pose * found),
+            );
+            self.keep_better(&mut best, &mut candidates, &points, &guesses, predicted);
             // The search over every heading runs on a poor fit, judged before the far search
             // adds its candidates: a far candidate that fits a little better must not keep the
             // right one, a turn beyond the window, from being found.
@@ -284,18 +289,18 @@ impl LocalTracker {
             {
                 searched_far = true;
                 let prepared = self.far_search.prepare(&reference);
-                for guess in [motion, Pose2::IDENTITY] {
-                    if let Ok(found) = self.far_search.match_prepared(&prepared, scan, guess) {
-                        let guess = last_pose * found.reference_from_new;
-                        self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
-                    }
-                }
+                let searches = [(&prepared, motion), (&prepared, Pose2::IDENTITY)];
+                let guesses: Vec<Pose2> = search_each(&self.far_search, scan, &searches)
+                    .into_iter()
+                    .flatten()
+                    .map(|found| last_pose * found)
+                    .collect();
+                self.keep_better(&mut best, &mut candidates, &points, &guesses, predicted);
             }
             if poor_after_wide {
                 searched_every_heading = true;
-                for guess in self.full_turn_guesses(&reference, scan, last_pose, motion) {
-                    self.keep_better(&mut best, &mut candidates, &points, guess, predicted);
-                }
+                let guesses = self.full_turn_guesses(&reference, scan, last_pose, motion);
+                self.keep_better(&mut best, &mut candidates, &points, &guesses, predicted);
             }
         }
         // Scored before the scan goes into the submap.
@@ -403,23 +408,27 @@ impl LocalTracker {
         })
     }
 
-    /// Aligns `points` from `guess_in_local`, adds the result to `candidates`, and keeps it
-    /// in `best` when it scores higher (its [`SubmapFit::tracking_score`] less the prior's
-    /// penalty for its distance from `predicted`).
+    /// Aligns `points` from each of `guesses_in_local` (side by side), adds the results to
+    /// `candidates` in the guesses' order, and keeps in `best` each that scores higher (its
+    /// [`SubmapFit::tracking_score`] less the prior's penalty for its distance from
+    /// `predicted`), as aligning them one after the other would.
     fn keep_better(
         &self,
         best: &mut Option<Alignment>,
         candidates: &mut Vec<Alignment>,
         points: &[[f64; 2]],
-        guess_in_local: Pose2,
+        guesses_in_local: &[Pose2],
         predicted: Pose2,
     ) {
-        let Some(candidate) = self.align(points, guess_in_local, predicted) else {
-            return;
-        };
-        candidates.push(candidate);
-        if best.is_none_or(|b| candidate.score > b.score) {
-            *best = Some(candidate);
+        let aligned: Vec<Option<Alignment>> = guesses_in_local
+            .par_iter()
+            .map(|&guess| self.align(points, guess, predicted))
+            .collect();
+        for candidate in aligned.into_iter().flatten() {
+            candidates.push(candidate);
+            if best.is_none_or(|b| candidate.score > b.score) {
+                *best = Some(candidate);
+            }
         }
     }
 
@@ -452,31 +461,31 @@ impl LocalTracker {
         last_pose: Pose2,
         motion: Pose2,
     ) -> Vec<Pose2> {
-        let mut guesses = Vec::new();
         let recent = self.full_turn_search.prepare(recent_reference);
-        for guess in [motion, Pose2::IDENTITY] {
-            if let Ok(found) = self.full_turn_search.match_prepared(&recent, scan, guess) {
-                guesses.push(last_pose * found.reference_from_new);
-            }
-        }
-        if let Some((submap, reference_scan)) = self
+        let submap = self
             .active
             .first()
-            .and_then(|submap| Some((submap, submap.reference_scan()?)))
-        {
-            let submap_in_local = submap.pose_in_local();
-            let submap_reference = self.full_turn_search.prepare(&reference_scan);
+            .and_then(|submap| Some((submap.pose_in_local(), submap.reference_scan()?)));
+        let submap_reference = submap
+            .as_ref()
+            .map(|(_, reference_scan)| self.full_turn_search.prepare(reference_scan));
+        // Each search's frame in the local frame, and the search.
+        let mut searches = vec![
+            (last_pose, (&recent, motion)),
+            (last_pose, (&recent, Pose2::IDENTITY)),
+        ];
+        if let (Some((submap_in_local, _)), Some(submap_reference)) = (submap, &submap_reference) {
             for guess in [motion, Pose2::IDENTITY] {
                 let guess_in_submap = submap_in_local.inverse() * last_pose * guess;
-                if let Ok(found) =
-                    self.full_turn_search
-                        .match_prepared(&submap_reference, scan, guess_in_submap)
-                {
-                    guesses.push(submap_in_local * found.reference_from_new);
-                }
+                searches.push((submap_in_local, (submap_reference, guess_in_submap)));
             }
         }
-        guesses
+        let (frames, searches): (Vec<Pose2>, Vec<_>) = searches.into_iter().unzip();
+        search_each(&self.full_turn_search, scan, &searches)
+            .into_iter()
+            .zip(frames)
+            .filter_map(|(found, frame_in_local)| Some(frame_in_local * found?))
+            .collect()
     }
 
     /// Starts afresh from a lost `scan` at its predicted `pose`: the active submaps are
@@ -568,6 +577,22 @@ impl LocalTracker {
 /// super::MotionPriorOptions::fit_measurements)), so a candidate weighs
 /// `exp(fit_measurements · (score − best score))` against the best; candidates that converged
 /// to one pose count once.
+/// The pose `matcher` finds for `scan` in each search (a prepared reference and the guess,
+/// both in the reference's frame), side by side; `None` where a search finds none.
+fn search_each(
+    matcher: &FastMatcher,
+    scan: &Scan,
+    searches: &[(&PreparedReference, Pose2)],
+) -> Vec<Option<Pose2>> {
+    searches
+        .par_iter()
+        .map(|&(reference, guess)| {
+            let found = matcher.match_prepared(reference, scan, guess).ok()?;
+            Some(found.reference_from_new)
+        })
+        .collect()
+}
+
 fn ambiguity(
     best: &Alignment,
     candidates: &[Alignment],
