@@ -258,17 +258,14 @@ impl LocalTracker {
         if best.is_none_or(|a| a.fit.surface_fraction < local.min_surface_fraction) {
             searched = true;
             let reference = self.recent.reference_in(last_pose);
-            let prepared = self.wide_search.prepare(&reference);
             let mut guesses = vec![last_pose];
-            // Around the prediction, and around standing still: a robot that stops turning or
-            // driving leaves the prediction a whole step off.
-            let searches = [(&prepared, motion), (&prepared, Pose2::IDENTITY)];
-            guesses.extend(
-                search_each(&self.wide_search, scan, &searches)
-                    .into_iter()
-                    .flatten()
-                    .map(|found| last_pose * found),
-            );
+            guesses.extend(search_around(
+                &self.wide_search,
+                &reference,
+                scan,
+                last_pose,
+                motion,
+            ));
             self.keep_better(&mut best, &mut candidates, &points, &guesses, predicted);
             // The search over every heading runs on a poor fit, judged before the far search
             // adds its candidates: a far candidate that fits a little better must not keep the
@@ -288,13 +285,7 @@ impl LocalTracker {
                 && best.is_none_or(|a| a.score < best_beyond_window)
             {
                 searched_far = true;
-                let prepared = self.far_search.prepare(&reference);
-                let searches = [(&prepared, motion), (&prepared, Pose2::IDENTITY)];
-                let guesses: Vec<Pose2> = search_each(&self.far_search, scan, &searches)
-                    .into_iter()
-                    .flatten()
-                    .map(|found| last_pose * found)
-                    .collect();
+                let guesses = search_around(&self.far_search, &reference, scan, last_pose, motion);
                 self.keep_better(&mut best, &mut candidates, &points, &guesses, predicted);
             }
             if poor_after_wide {
@@ -570,13 +561,26 @@ impl LocalTracker {
     }
 }
 
-/// The covariance about `best` (in its robot frame) of the `candidates` whose score comes
-/// near its own, and `best`'s share of their likelihood.
-///
-/// A score is a log-likelihood over `fit_measurements` ([`MotionPriorOptions::fit_measurements`](
-/// super::MotionPriorOptions::fit_measurements)), so a candidate weighs
-/// `exp(fit_measurements · (score − best score))` against the best; candidates that converged
-/// to one pose count once.
+/// The poses in the local frame `matcher` finds for `scan` against `reference` (the last
+/// scans, in the frame of `last_pose`), searched around the predicted `motion` and around
+/// standing still: a robot that stops turning or driving leaves the prediction a whole step
+/// off.
+fn search_around(
+    matcher: &FastMatcher,
+    reference: &Scan,
+    scan: &Scan,
+    last_pose: Pose2,
+    motion: Pose2,
+) -> Vec<Pose2> {
+    let prepared = matcher.prepare(reference);
+    let searches = [(&prepared, motion), (&prepared, Pose2::IDENTITY)];
+    search_each(matcher, scan, &searches)
+        .into_iter()
+        .flatten()
+        .map(|found| last_pose * found)
+        .collect()
+}
+
 /// The pose `matcher` finds for `scan` in each search (a prepared reference and the guess,
 /// both in the reference's frame), side by side; `None` where a search finds none.
 fn search_each(
@@ -593,6 +597,13 @@ fn search_each(
         .collect()
 }
 
+/// The covariance about `best` (in its robot frame) of the `candidates` whose score comes
+/// near its own, and `best`'s share of their likelihood.
+///
+/// A score is a log-likelihood over `fit_measurements` ([`MotionPriorOptions::fit_measurements`](
+/// super::MotionPriorOptions::fit_measurements)), so a candidate weighs
+/// `exp(fit_measurements · (score − best score))` against the best; candidates that converged
+/// to one pose count once.
 fn ambiguity(
     best: &Alignment,
     candidates: &[Alignment],
