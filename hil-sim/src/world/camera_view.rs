@@ -35,7 +35,8 @@ pub struct CameraRigOptions {
     pub camera: PinholeCamera,
     /// Height of the camera's centre above the ground, m.
     pub height_m: f64,
-    /// Nothing further than this is drawn (the sky or the ground's haze instead), m.
+    /// No solid further than this is drawn (the sky or the ground instead; the ground itself
+    /// reaches the horizon), m.
     pub max_range_m: f64,
     /// Standard deviation of each pixel's noise, grey levels.
     pub noise_sigma: f64,
@@ -372,7 +373,12 @@ impl CameraView {
                     }
                 }
                 let value = value.unwrap_or_else(|| {
-                    if k < 0.0 && h / -k <= self.options.max_range_m {
+                    // The ground reaches the horizon, as a plane does: cut at a range, its far
+                    // edge would be a curve fixed to the camera (the same range every way),
+                    // drawn in steps of a pixel, whose corners turn with the camera and not
+                    // with the world. Far off, its texture is finer than a pixel and it is
+                    // its mean.
+                    if k < 0.0 {
                         let t = h / -k;
                         let ground = [origin[0] + dir[0] * t, origin[1] + dir[1] * t];
                         // Along the ground, a pixel covers more than across it.
